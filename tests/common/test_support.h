@@ -1,0 +1,51 @@
+#pragma once
+// Shared helpers for Palpa's tests: named tolerances and access to the shared
+// organ meshes, with a clear skip message when they are not present.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace palpa::test {
+
+/// Tolerances named by what they guard.
+inline constexpr double kRoundoff = 1e-12;     ///< double arithmetic on O(1) values
+inline constexpr double kFloatRoundoff = 1e-6; ///< float32 stream values
+
+/// Folder of the shared real organ meshes (../shared/data/organs).
+inline std::filesystem::path shared_organs_dir() {
+  return std::filesystem::path(PALPA_SHARED_DATA_DIR) / "organs";
+}
+
+/// The project's own data folder.
+inline std::filesystem::path project_data_dir() {
+  return std::filesystem::path(PALPA_SOURCE_DIR) / "data";
+}
+
+/// True when the shared organs are present; otherwise the caller should
+/// GTEST_SKIP() << shared_data_missing_message().
+inline bool have_shared_organs() { return std::filesystem::is_directory(shared_organs_dir()); }
+
+inline std::string shared_data_missing_message() {
+  return "shared organ meshes not found at " + shared_organs_dir().string() +
+         " (../shared/data is not beside this checkout); this test needs them";
+}
+
+/// Skips the current test, saying why, when the shared organs are absent.
+#define PALPA_REQUIRE_SHARED_ORGANS()                                   \
+  do {                                                                  \
+    if (!::palpa::test::have_shared_organs())                           \
+      GTEST_SKIP() << ::palpa::test::shared_data_missing_message();     \
+  } while (0)
+
+/// A fresh empty folder under the system temp dir, for files a test writes.
+inline std::filesystem::path temp_dir(const std::string& name) {
+  auto d = std::filesystem::temp_directory_path() / ("palpa_test_" + name);
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+}  // namespace palpa::test
