@@ -1,0 +1,518 @@
+// The deformable surface (sections III.A, III.B, IV): contact force fields
+// shaped by shape functions, per-vertex local models advanced over an active
+// set, normal corrections of eq. (3) and the (nx, ny, nz, h) stream.
+
+#include "deform/surface.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace palpa::deform {
+
+namespace {
+
+constexpr std::uint8_t kActive = 1u << 0;
+constexpr std::uint8_t kForced = 1u << 1;
+constexpr std::uint8_t kVisited = 1u << 2;
+constexpr std::uint8_t kDirty = 1u << 3;
+
+bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
+
+bool at_rest(const VertexState& s) { return s.h == 0.0 && s.v == 0.0 && s.q == 0.0; }
+
+// A contact that can shape a field: finite, non-zero depth, a positive radius.
+bool usable(const Contact& c) {
+  return std::isfinite(c.depth) && c.depth != 0.0 && finite(c.point) && c.shape.radius > 0 &&
+         std::isfinite(c.shape.radius);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// Construction and materials.
+
+std::size_t DeformableSurface::MaterialKeyHash::operator()(const MaterialKey& k) const {
+  // FNV-1a style mix of the seven words.
+  std::uint64_t h = 1469598103934665603ull;
+  for (std::uint64_t w : k) {
+    h ^= w + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+    h *= 1099511628211ull;
+  }
+  return static_cast<std::size_t>(h);
+}
+
+DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> mesh, MaterialArrays materials,
+                                     SurfaceOptions options)
+    : mesh_(std::move(mesh)), materials_(std::move(materials)), options_(options) {
+  // The mesh must be finalized: one normal and one adjacency row per vertex.
+  if (!mesh_) throw std::invalid_argument("DeformableSurface: the mesh is null");
+  const std::size_t n = mesh_->vertex_count();
+  if (n >= kNoIndex) throw std::invalid_argument("DeformableSurface: the mesh has too many vertices");
+  if (mesh_->normals.size() != n) {
+    throw std::invalid_argument("DeformableSurface: the mesh has " + std::to_string(n) + " vertices but " +
+                                std::to_string(mesh_->normals.size()) + " normals (finalize it)");
+  }
+  if (mesh_->vertex_neighbors.rows() != n) {
+    throw std::invalid_argument("DeformableSurface: the mesh has " + std::to_string(n) + " vertices but " +
+                                std::to_string(mesh_->vertex_neighbors.rows()) +
+                                " adjacency rows (finalize it)");
+  }
+  // Options within their ranges.
+  if (!(options_.rest_threshold >= 0) || !std::isfinite(options_.rest_threshold)) {
+    std::ostringstream msg;
+    msg << "SurfaceOptions: rest_threshold must be non-negative and finite, got " << options_.rest_threshold
+        << " m";
+    throw std::invalid_argument(msg.str());
+  }
+  if (!(options_.min_normal_cosine >= -1.0 && options_.min_normal_cosine <= 1.0)) {
+    std::ostringstream msg;
+    msg << "SurfaceOptions: min_normal_cosine must be in [-1, 1], got " << options_.min_normal_cosine;
+    throw std::invalid_argument(msg.str());
+  }
+  materials_.validate(n);
+
+  // Per-vertex arrays, all at rest; the whole stream is due for a first upload.
+  state_.vertices.assign(n, VertexState{});
+  force_.assign(n, 0.0);
+  correction_.assign(n, Vec3::Zero());
+  flags_.assign(n, 0);
+  stream_.assign(4 * n, 0.0f);
+  active_.resize(n);
+  dirty_.resize(n);
+  all_dirty_ = true;
+  rebuild_integrators();
+}
+
+Index DeformableSurface::intern_material(const Material& m) {
+  // Find the material's integrator by bit pattern, adding it when new.
+  MaterialKey key = {static_cast<std::uint64_t>(m.model), std::bit_cast<std::uint64_t>(m.mass),
+                     std::bit_cast<std::uint64_t>(m.damping), std::bit_cast<std::uint64_t>(m.stiffness),
+                     std::bit_cast<std::uint64_t>(m.alpha), std::bit_cast<std::uint64_t>(m.k2),
+                     std::bit_cast<std::uint64_t>(m.tau)};
+  auto [it, inserted] = integrator_lookup_.try_emplace(key, static_cast<Index>(integrators_.size()));
+  if (inserted) {
+    Integrator g;
+    g.material = m;
+    if (coefficients_dt_ > 0) g.linear = LinearStep::make(m, coefficients_dt_);
+    integrators_.push_back(g);
+  }
+  return it->second;
+}
+
+void DeformableSurface::rebuild_integrators() {
+  // One integrator per distinct material; runs of equal materials skip the lookup.
+  integrators_.clear();
+  integrator_lookup_.clear();
+  integrator_of_.assign(materials_.size(), 0);
+  Material previous;
+  Index previous_index = kNoIndex;
+  for (std::size_t i = 0; i < materials_.size(); ++i) {
+    const Material m = materials_.at(static_cast<Index>(i));
+    if (previous_index == kNoIndex || !(m == previous)) {
+      previous = m;
+      previous_index = intern_material(m);
+    }
+    integrator_of_[i] = previous_index;
+  }
+}
+
+void DeformableSurface::set_material(Index i, const Material& m) {
+  if (i >= materials_.size()) {
+    throw std::invalid_argument("set_material: vertex " + std::to_string(i) + " is out of range (the mesh has " +
+                                std::to_string(materials_.size()) + " vertices)");
+  }
+  validate_material(m, "material of vertex " + std::to_string(i));
+  materials_.set(i, m);
+  integrator_of_[i] = intern_material(m);
+  // Painting many distinct values leaves unused integrators behind: compact now and then.
+  if (integrators_.size() > 2 * materials_.size() + 64) rebuild_integrators();
+}
+
+void DeformableSurface::set_materials(MaterialArrays materials) {
+  materials.validate(mesh_->vertex_count());
+  materials_ = std::move(materials);
+  rebuild_integrators();
+}
+
+void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
+  contacts_.assign(contacts.begin(), contacts.end());
+}
+
+// ---------------------------------------------------------------------------
+// Force fields (section III.B) and normal corrections (eq. 3).
+
+void DeformableSurface::add_field(Index i, const Contact& c, double r) {
+  // Force that holds vertex i at the shape function's height -depth S(r).
+  const Material& m = integrators_[integrator_of_[i]].material;
+  force_[i] += local_model(m.model).equilibrium_force(m, -c.depth * c.shape.value(r));
+
+  // eq. (3): depth S'(r) along the tangential direction away from the contact.
+  const Vec3& n0 = mesh_->normals[i];
+  const Vec3 d = mesh_->positions[i] - c.point;
+  const Vec3 t = d - d.dot(n0) * n0;
+  const double len = t.norm();
+  if (len > 1e-12 * c.shape.radius) correction_[i] += (c.depth * c.shape.derivative(r) / len) * t;
+
+  if (!(flags_[i] & kForced)) {
+    flags_[i] |= kForced;
+    forced_.push_back(i);
+  }
+}
+
+void DeformableSurface::field_by_bfs(const Contact& c) {
+  // Breadth-first visit from the contact vertex over mesh neighbours; vertices
+  // outside the support are marked visited but not expanded.
+  const auto& pos = mesh_->positions;
+  const double radius = c.shape.radius;
+  bfs_queue_.clear();
+  bfs_queue_.push_back(c.vertex);
+  flags_[c.vertex] |= kVisited;
+  for (std::size_t head = 0; head < bfs_queue_.size(); ++head) {
+    const Index i = bfs_queue_[head];
+    const double r = (pos[i] - c.point).norm();
+    if (!(r < radius)) continue;
+    add_field(i, c, r);
+    for (Index j : mesh_->vertex_neighbors.row(i)) {
+      if (!(flags_[j] & kVisited)) {
+        flags_[j] |= kVisited;
+        bfs_queue_.push_back(j);
+      }
+    }
+  }
+  // Clear the visit marks for the next contact.
+  for (Index i : bfs_queue_) flags_[i] &= static_cast<std::uint8_t>(~kVisited);
+}
+
+void DeformableSurface::field_by_scan(const Contact& c, const Vec3& n) {
+  // Every vertex tests its distance to the contact and its normal against the
+  // contact normal (the data-parallel way of section III.B).
+  const auto& pos = mesh_->positions;
+  const auto& nrm = mesh_->normals;
+  const double radius = c.shape.radius;
+  const double reject2 = 2.0 * radius * radius;  // cheap early rejection, safely above radius^2
+  const Index count = static_cast<Index>(pos.size());
+  for (Index i = 0; i < count; ++i) {
+    const Vec3 d = pos[i] - c.point;
+    if (d.squaredNorm() > reject2) continue;
+    const double r = d.norm();
+    if (!(r < radius) || nrm[i].dot(n) < options_.min_normal_cosine) continue;
+    add_field(i, c, r);
+  }
+}
+
+void DeformableSurface::apply_fields() {
+  // Clear the previous step's fields, remembering which vertices had one.
+  prev_forced_.swap(forced_);
+  forced_.clear();
+  for (Index i : prev_forced_) {
+    force_[i] = 0.0;
+    correction_[i].setZero();
+    flags_[i] &= static_cast<std::uint8_t>(~kForced);
+  }
+
+  // Superpose the fields of every usable contact, in contact order.
+  const Index count = static_cast<Index>(mesh_->vertex_count());
+  for (const Contact& c : contacts_) {
+    if (!usable(c)) continue;
+    if (options_.propagation == Propagation::Topological && c.vertex < count) {
+      field_by_bfs(c);
+      continue;
+    }
+    // DistanceNormal, or a contact without a valid seed vertex.
+    const double len = c.normal.norm();
+    if (!(len > 0) || !std::isfinite(len)) continue;
+    field_by_scan(c, c.normal / len);
+  }
+
+  // Vertices that left every field: their stream correction is now zero.
+  for (Index i : prev_forced_) {
+    if (!(flags_[i] & kForced)) write_stream(i);
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Integration (section III.A) over the active set.
+
+void DeformableSurface::prepare_step(double dt) {
+  // Linear exact-discretisation coefficients depend on dt: rebuild per distinct material.
+  if (dt != coefficients_dt_) {
+    for (Integrator& g : integrators_) g.linear = LinearStep::make(g.material, dt);
+    coefficients_dt_ = dt;
+  }
+  apply_fields();
+}
+
+// The per-vertex update of step() and step_full(): everything it touches is
+// held in locals, so byte stores to the flags do not force reloads.
+struct DeformableSurface::Sweep {
+  VertexState* state;
+  const double* force;
+  const Vec3* correction;
+  const Index* integrator_of;
+  const Integrator* integrators;
+  std::uint8_t* flags;
+  float* stream;
+  Index* dirty;
+  std::size_t dirty_size;
+  bool all_dirty;
+  double dt;
+  double rest;
+
+  Sweep(DeformableSurface& s, double step_dt)
+      : state(s.state_.vertices.data()),
+        force(s.force_.data()),
+        correction(s.correction_.data()),
+        integrator_of(s.integrator_of_.data()),
+        integrators(s.integrators_.data()),
+        flags(s.flags_.data()),
+        stream(s.stream_.data()),
+        dirty(s.dirty_.data()),
+        dirty_size(s.dirty_size_),
+        all_dirty(s.all_dirty_),
+        dt(step_dt),
+        rest(s.options_.rest_threshold) {}
+
+  void finish(DeformableSurface& s) const { s.dirty_size_ = dirty_size; }
+
+  void mark(Index i, std::uint8_t& f) {
+    if (all_dirty || (f & kDirty)) return;
+    f |= kDirty;
+    dirty[dirty_size++] = i;
+  }
+
+  // Advances vertex i by dt under its field force (zero outside every field),
+  // updates its stream entry and flags; returns whether it stays active.
+  bool advance(Index i) {
+    std::uint8_t f = flags[i];
+    VertexState& s = state[i];
+    const bool forced = (f & kForced) != 0;
+    const double fi = forced ? force[i] : 0.0;
+    const Integrator& g = integrators[integrator_of[i]];
+    if (g.material.model == LocalModelKind::Linear) {
+      g.linear.apply(s, fi);
+    } else {
+      local_model(g.material.model).step(g.material, s, fi, dt);
+    }
+
+    float* p = stream + 4 * static_cast<std::size_t>(i);
+    bool stays = true;
+    if (forced) {
+      // In a field: correction and height may both have changed.
+      const Vec3& c = correction[i];
+      const float nx = static_cast<float>(c.x()), ny = static_cast<float>(c.y()), nz = static_cast<float>(c.z());
+      const float h = static_cast<float>(s.h);
+      if (p[0] != nx || p[1] != ny || p[2] != nz || p[3] != h) {
+        p[0] = nx;
+        p[1] = ny;
+        p[2] = nz;
+        p[3] = h;
+        mark(i, f);
+      }
+    } else {
+      // No field (its stream correction is already zero). A vertex that has
+      // (nearly) stopped is set exactly to rest and leaves the active set.
+      if (std::abs(s.h) <= rest && std::abs(s.v) * dt <= rest && std::abs(s.q) <= rest) {
+        s = VertexState{};
+        stays = false;
+      }
+      const float h = static_cast<float>(s.h);
+      if (p[3] != h) {
+        p[3] = h;
+        mark(i, f);
+      }
+    }
+    flags[i] = stays ? static_cast<std::uint8_t>(f | kActive) : static_cast<std::uint8_t>(f & ~kActive);
+    return stays;
+  }
+};
+
+void DeformableSurface::step(double dt) {
+  if (!(dt > 0) || !std::isfinite(dt)) return;
+  prepare_step(dt);
+
+  // Vertices entering a field join the active set.
+  Index* active = active_.data();
+  for (Index i : forced_) {
+    if (!(flags_[i] & kActive)) {
+      flags_[i] |= kActive;
+      active[active_size_++] = i;
+    }
+  }
+  // Advance the active set, dropping the vertices that came to rest.
+  Sweep sweep(*this, dt);
+  const std::size_t n = active_size_;
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Index i = active[k];
+    if (sweep.advance(i)) active[kept++] = i;
+  }
+  active_size_ = kept;
+  sweep.finish(*this);
+  state_.time += dt;
+}
+
+void DeformableSurface::step_full(double dt) {
+  if (!(dt > 0) || !std::isfinite(dt)) return;
+  prepare_step(dt);
+
+  // Advance every vertex; the active set becomes those not at rest or in a
+  // field. A vertex exactly at rest, with no field and not active, would stay
+  // exactly at rest under every model, so it is only read.
+  Sweep sweep(*this, dt);
+  Index* active = active_.data();
+  const VertexState* state = state_.vertices.data();
+  const std::uint8_t* flags = flags_.data();
+  std::size_t kept = 0;
+  const Index count = static_cast<Index>(mesh_->vertex_count());
+  for (Index i = 0; i < count; ++i) {
+    if (!(flags[i] & (kForced | kActive)) && at_rest(state[i])) continue;
+    if (sweep.advance(i)) active[kept++] = i;
+  }
+  active_size_ = kept;
+  sweep.finish(*this);
+  state_.time += dt;
+}
+
+// ---------------------------------------------------------------------------
+// Queries: eq. (2) positions and eq. (3) normals.
+
+double DeformableSurface::field_force(Index i) const { return force_[i]; }
+
+Vec3 DeformableSurface::normal_correction(Index i) const { return correction_[i]; }
+
+Vec3 DeformableSurface::deformed_position(Index i) const {
+  return mesh_->positions[i] + state_.vertices[i].h * mesh_->normals[i];
+}
+
+Vec3 DeformableSurface::deformed_normal(Index i) const {
+  return (mesh_->normals[i] + correction_[i]).normalized();
+}
+
+// ---------------------------------------------------------------------------
+// Snapshots.
+
+void DeformableSurface::set_state(const SurfaceState& s) {
+  // The snapshot must fit this mesh and hold finite values.
+  const std::size_t n = mesh_->vertex_count();
+  if (s.vertices.size() != n) {
+    throw std::invalid_argument("set_state: the snapshot has " + std::to_string(s.vertices.size()) +
+                                " vertices but the mesh has " + std::to_string(n));
+  }
+  if (!std::isfinite(s.time)) throw std::invalid_argument("set_state: the snapshot time is not finite");
+  for (std::size_t i = 0; i < n; ++i) {
+    const VertexState& v = s.vertices[i];
+    if (!std::isfinite(v.h) || !std::isfinite(v.v) || !std::isfinite(v.q)) {
+      throw std::invalid_argument("set_state: vertex " + std::to_string(i) + " has a non-finite state");
+    }
+  }
+  state_ = s;
+
+  // The active set becomes the vertices not at rest or in a field; the whole stream is rewritten.
+  all_dirty_ = true;
+  active_size_ = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Index vi = static_cast<Index>(i);
+    if (!at_rest(state_.vertices[i]) || (flags_[i] & kForced)) {
+      flags_[i] |= kActive;
+      active_[active_size_++] = vi;
+    } else {
+      flags_[i] &= static_cast<std::uint8_t>(~kActive);
+    }
+    write_stream(vi);
+  }
+}
+
+void DeformableSurface::reset() {
+  // Release contacts and their fields.
+  contacts_.clear();
+  prev_forced_.swap(forced_);
+  forced_.clear();
+  for (Index i : prev_forced_) {
+    force_[i] = 0.0;
+    correction_[i].setZero();
+    flags_[i] &= static_cast<std::uint8_t>(~kForced);
+    write_stream(i);
+  }
+  prev_forced_.clear();
+  // Vertices outside the active set are already exactly at rest.
+  for (std::size_t k = 0; k < active_size_; ++k) {
+    const Index i = active_[k];
+    state_.vertices[i] = VertexState{};
+    flags_[i] &= static_cast<std::uint8_t>(~kActive);
+    write_stream(i);
+  }
+  active_size_ = 0;
+  state_.time = 0.0;
+}
+
+// ---------------------------------------------------------------------------
+// The (nx, ny, nz, h) stream of section IV and its dirty ranges.
+
+void DeformableSurface::write_stream(Index i) {
+  // Store the float32 values, marking the vertex dirty only when they change.
+  const Vec3& c = correction_[i];
+  const float nx = static_cast<float>(c.x());
+  const float ny = static_cast<float>(c.y());
+  const float nz = static_cast<float>(c.z());
+  const float h = static_cast<float>(state_.vertices[i].h);
+  float* p = stream_.data() + 4 * static_cast<std::size_t>(i);
+  if (p[0] != nx || p[1] != ny || p[2] != nz || p[3] != h) {
+    p[0] = nx;
+    p[1] = ny;
+    p[2] = nz;
+    p[3] = h;
+    mark_dirty(i);
+  }
+}
+
+void DeformableSurface::mark_dirty(Index i) {
+  if (all_dirty_ || (flags_[i] & kDirty)) return;
+  flags_[i] |= kDirty;
+  dirty_[dirty_size_++] = i;
+}
+
+std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
+  std::vector<IndexRange> ranges;
+  const Index count = static_cast<Index>(mesh_->vertex_count());
+  const std::span<Index> dirty(dirty_.data(), dirty_size_);
+  dirty_size_ = 0;
+
+  // Everything changed: one range, and the individual marks are cleared.
+  if (all_dirty_) {
+    for (Index i : dirty) flags_[i] &= static_cast<std::uint8_t>(~kDirty);
+    all_dirty_ = false;
+    if (count > 0) ranges.push_back({0, count});
+    return ranges;
+  }
+
+  // Appends vertex i to the ranges, extending the last one when contiguous.
+  auto append = [&ranges](Index i) {
+    if (!ranges.empty() && ranges.back().end == i) {
+      ranges.back().end = i + 1;
+    } else {
+      ranges.push_back({i, i + 1});
+    }
+  };
+  if (dirty.size() >= count / 16 + 1) {
+    // Many changes: one linear pass over the flags beats sorting the list.
+    for (Index i = 0; i < count; ++i) {
+      if (!(flags_[i] & kDirty)) continue;
+      flags_[i] &= static_cast<std::uint8_t>(~kDirty);
+      append(i);
+    }
+  } else {
+    // Few changes: sort the list and merge contiguous runs.
+    std::sort(dirty.begin(), dirty.end());
+    for (Index i : dirty) {
+      flags_[i] &= static_cast<std::uint8_t>(~kDirty);
+      append(i);
+    }
+  }
+  return ranges;
+}
+
+}  // namespace palpa::deform

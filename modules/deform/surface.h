@@ -1,0 +1,174 @@
+#pragma once
+// The deformable surface (sections III.A, III.B, IV): per-vertex local models
+// driven by contact force fields, an active set so a step costs in proportion
+// to the deformed region, and the (nx, ny, nz, h) float32 stream with dirty
+// ranges for partial GPU upload.
+
+#include "deform/local_model.h"
+#include "deform/shape_function.h"
+#include "mesh/surface_mesh.h"
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+namespace palpa::deform {
+
+/// One contact acting on the surface, as found by collision detection.
+struct Contact {
+  Vec3 point = Vec3::Zero();   ///< contact point on the undeformed surface, m
+  Vec3 normal = Vec3::UnitZ(); ///< unit undeformed surface normal at the point
+  Index vertex = kNoIndex;     ///< nearest vertex (BFS seed)
+  double depth = 0;            ///< indentation below the undeformed surface, m (> 0 pushes in)
+  ShapeFunction shape;
+};
+
+/// How a contact's force field reaches vertices (section III.B).
+enum class Propagation : unsigned char {
+  /// Breadth-first visit over mesh neighbours from the contact vertex,
+  /// stopping at vertices farther than the support radius (CPU way).
+  Topological = 0,
+  /// Every vertex tests its distance to the contact point and its normal
+  /// against the contact normal (GPU way; data-parallel, O(V) per contact).
+  DistanceNormal = 1,
+};
+
+struct SurfaceOptions {
+  Propagation propagation = Propagation::Topological;
+  /// DistanceNormal: vertices whose undeformed normal has n . n_contact below
+  /// this are not affected (keeps fields off the far side of thin parts).
+  double min_normal_cosine = 0.0;
+  /// A vertex outside every field leaves the active set once |h|, |v| dt and
+  /// |q| are all at or below this (m); its state is then set exactly to rest.
+  double rest_threshold = 1e-9;
+};
+
+/// Per-tick state of the whole surface: plain data the recorder can snapshot.
+struct SurfaceState {
+  std::vector<VertexState> vertices;
+  double time = 0;  ///< s, advanced by every step
+};
+
+class DeformableSurface {
+ public:
+  /// All vertices start at rest with no contact. Throws std::invalid_argument
+  /// when the mesh is null or not finalized (normals and adjacency per vertex),
+  /// when the materials do not fit it (MaterialArrays::validate) or when an
+  /// option is out of range, e.g. "SurfaceOptions: rest_threshold must be
+  /// non-negative and finite, got -1 m".
+  DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> mesh, MaterialArrays materials,
+                    SurfaceOptions options = {});
+
+  const mesh::SurfaceMesh& mesh() const { return *mesh_; }
+  const MaterialArrays& materials() const { return materials_; }
+  /// Replace the material of vertex i (takes effect at the next step).
+  /// Throws std::invalid_argument for an out-of-range vertex or a bad material.
+  void set_material(Index i, const Material& m);
+  /// Replace the whole material map; throws as MaterialArrays::validate.
+  void set_materials(MaterialArrays materials);
+  const SurfaceOptions& options() const { return options_; }
+
+  /// The contacts whose force fields act during the following steps
+  /// (several superpose by summing forces and corrections). Copied; an empty
+  /// span releases all contacts. Contacts with a zero or non-finite depth, a
+  /// non-finite point or a radius <= 0 shape nothing. With Topological
+  /// propagation a contact whose vertex is not a mesh vertex falls back to the
+  /// DistanceNormal test.
+  void set_contacts(std::span<const Contact> contacts);
+  std::span<const Contact> contacts() const { return contacts_; }
+
+  /// Advances the active set by dt seconds. Deterministic: the result depends
+  /// only on the previous state, the contacts, the materials and dt. Each
+  /// contact j drives vertex i (undeformed distance r from the contact point)
+  /// with the force that holds it at height -depth_j S_j(r). A dt that is not
+  /// positive and finite does nothing. Allocates nothing once its buffers
+  /// have grown to the largest field seen.
+  void step(double dt);
+  /// Advances every vertex (reference and benchmark path). Same physics and
+  /// same results as step(): vertices outside the active set are at rest.
+  void step_full(double dt);
+
+  /// Force field (N, along the outward normal) currently applied to vertex i.
+  double field_force(Index i) const;
+  /// Normal correction of eq. (3) for vertex i (sum over contacts, not normalised).
+  Vec3 normal_correction(Index i) const;
+  /// Deformed position P0 + h N0 (eq. 2), m.
+  Vec3 deformed_position(Index i) const;
+  /// Deformed unit normal normalize(N0 + sum Ni) (eq. 3).
+  Vec3 deformed_normal(Index i) const;
+
+  const SurfaceState& state() const { return state_; }
+  /// Restores a snapshot taken with state() (same mesh); marks everything dirty.
+  /// Throws std::invalid_argument when its vertex count differs from the mesh
+  /// ("set_state: the snapshot has 3 vertices but the mesh has 4") or a value
+  /// is not finite.
+  void set_state(const SurfaceState& s);
+  /// Returns every vertex to rest, releases contacts and sets time to 0.
+  void reset();
+
+  /// Vertices integrated by step() now.
+  std::size_t active_count() const { return active_size_; }
+
+  /// The (nx, ny, nz, h) float32 stream of section IV, 4 floats per vertex:
+  /// normal correction and height (m).
+  std::span<const float> stream() const { return stream_; }
+  /// Index ranges covering exactly the vertices whose stream entries changed
+  /// since the last call (sorted, disjoint, merged only where contiguous), so
+  /// an upload of them moves 16 bytes per changed vertex; clears them. The
+  /// first call after construction or set_state returns the whole mesh.
+  std::vector<IndexRange> take_dirty_ranges();
+
+ private:
+  // One distinct material with its integrator, cached for the step dt_ it was built for.
+  struct Integrator {
+    Material material;
+    LinearStep linear;  // valid for Linear when coefficients_dt_ is the step's dt
+  };
+
+  // Bit pattern of a Material's fields: the key that finds its Integrator.
+  using MaterialKey = std::array<std::uint64_t, 7>;
+  struct MaterialKeyHash {
+    std::size_t operator()(const MaterialKey& k) const;
+  };
+
+  struct Sweep;  // the per-vertex update shared by step() and step_full()
+
+  void prepare_step(double dt);
+  void apply_fields();
+  void add_field(Index i, const Contact& c, double r);
+  void field_by_bfs(const Contact& c);
+  void field_by_scan(const Contact& c, const Vec3& n);
+  void write_stream(Index i);
+  void mark_dirty(Index i);
+  Index intern_material(const Material& m);
+  void rebuild_integrators();
+
+  std::shared_ptr<const mesh::SurfaceMesh> mesh_;
+  MaterialArrays materials_;
+  SurfaceOptions options_;
+  SurfaceState state_;
+  std::vector<Contact> contacts_;
+
+  std::vector<Integrator> integrators_;  // distinct materials
+  std::vector<Index> integrator_of_;     // per vertex: index into integrators_
+  std::unordered_map<MaterialKey, Index, MaterialKeyHash> integrator_lookup_;
+  double coefficients_dt_ = 0;           // s; dt the Linear coefficients were made for (0: none)
+
+  std::vector<double> force_;         // N, per vertex
+  std::vector<Vec3> correction_;      // eq. (3) sum, per vertex
+  std::vector<Index> forced_;         // vertices inside a contact's field this step
+  std::vector<Index> prev_forced_;    // forced_ of the previous step
+  std::vector<Index> active_;         // active set: first active_size_ entries (storage for every vertex)
+  std::size_t active_size_ = 0;
+  std::vector<std::uint8_t> flags_;   // bit 0: active, bit 1: forced, bit 2: visited, bit 3: dirty
+  std::vector<Index> bfs_queue_;
+  std::vector<float> stream_;
+  std::vector<Index> dirty_;          // changed since take_dirty_ranges (flag bit 3): first dirty_size_ entries
+  std::size_t dirty_size_ = 0;
+  bool all_dirty_ = true;             // every vertex changed (new surface or set_state)
+};
+
+}  // namespace palpa::deform

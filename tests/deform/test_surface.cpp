@@ -1,0 +1,635 @@
+// The deformable surface (sections III.A, III.B, IV) against physics and brute
+// force: equilibrium shapes, volume, normals, superposition, the active set,
+// propagation, determinism and the dirty ranges of the stream.
+
+#include "deform/surface.h"
+
+#include "allocation_counter.h"
+#include "mesh/generate.h"
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace palpa::deform {
+namespace {
+
+using mesh::SurfaceMesh;
+using MeshPtr = std::shared_ptr<const SurfaceMesh>;
+
+MeshPtr sphere(std::size_t vertices, double radius) {
+  return std::make_shared<const SurfaceMesh>(mesh::make_sphere(vertices, radius));
+}
+
+MeshPtr plane(int n, double spacing) { return std::make_shared<const SurfaceMesh>(mesh::make_plane(n, n, spacing)); }
+
+Material linear() { return Material{}; }  // 1 g, 1 N s/m, 500 N/m
+
+// The vertex nearest to p (brute force).
+Index nearest_vertex(const SurfaceMesh& m, const Vec3& p) {
+  Index best = 0;
+  for (Index i = 1; i < m.vertex_count(); ++i) {
+    if ((m.positions[i] - p).squaredNorm() < (m.positions[best] - p).squaredNorm()) best = i;
+  }
+  return best;
+}
+
+// A contact at p on the undeformed surface, seeded at the nearest vertex.
+Contact contact_near(const SurfaceMesh& m, const Vec3& p, double depth, ShapeKind kind, double radius) {
+  Contact c;
+  c.vertex = nearest_vertex(m, p);
+  c.point = p;
+  c.normal = m.normals[c.vertex];
+  c.depth = depth;
+  c.shape = ShapeFunction{kind, radius};
+  return c;
+}
+
+// A contact on a sphere centred at the origin, in direction dir.
+Contact sphere_contact(const SurfaceMesh& m, double sphere_radius, Vec3 dir, double depth, ShapeKind kind,
+                       double radius) {
+  dir.normalize();
+  Contact c = contact_near(m, sphere_radius * dir, depth, kind, radius);
+  c.normal = dir;
+  return c;
+}
+
+void run(DeformableSurface& s, int steps, double dt) {
+  for (int n = 0; n < steps; ++n) s.step(dt);
+}
+
+// Area-weighted vertex normals recomputed from the deformed positions (eq. 2).
+std::vector<Vec3> geometric_normals(const DeformableSurface& s) {
+  const SurfaceMesh& m = s.mesh();
+  std::vector<Vec3> n(m.vertex_count(), Vec3::Zero());
+  for (const auto& t : m.triangles) {
+    const Vec3 a = s.deformed_position(t[0]), b = s.deformed_position(t[1]), c = s.deformed_position(t[2]);
+    const Vec3 w = (b - a).cross(c - a);
+    for (Index v : t) n[v] += w;
+  }
+  for (Vec3& v : n) v.normalize();
+  return n;
+}
+
+double angle(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+
+bool same_bits(const SurfaceState& a, const SurfaceState& b) {
+  return a.vertices.size() == b.vertices.size() && a.time == b.time &&
+         std::memcmp(a.vertices.data(), b.vertices.data(), a.vertices.size() * sizeof(VertexState)) == 0;
+}
+
+bool same_bits(std::span<const float> a, std::span<const float> b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// ---------------------------------------------------------------------------
+// Equilibrium shape (section III.B): a single contact's shape is the shape function.
+
+TEST(Surface, EquilibriumShapeIsTheShapeFunctionForEveryModel) {
+  const double spacing = 1e-3, radius = 0.02, depth = 0.003;
+  const MeshPtr m = plane(81, spacing);
+  Material exponential;
+  exponential.model = LocalModelKind::Exponential;
+  Material viscoelastic;
+  viscoelastic.model = LocalModelKind::Viscoelastic;
+  viscoelastic.tau = 0.05;
+  for (const Material& mat : {linear(), exponential, viscoelastic}) {
+    for (ShapeKind kind : {ShapeKind::Gaussian, ShapeKind::Wendland, ShapeKind::VolumeConserving}) {
+      SCOPED_TRACE("model " + std::to_string(int(mat.model)) + " shape " + std::to_string(int(kind)));
+      DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), mat));
+      const Contact c = contact_near(*m, Vec3(2e-4, -3e-4, 0), depth, kind, radius);
+      s.set_contacts({&c, 1});
+      run(s, 600, 0.01);
+      for (Index i = 0; i < m->vertex_count(); ++i) {
+        const double r = (m->positions[i] - c.point).norm();
+        const double expected = r < radius ? -depth * c.shape.value(r) : 0.0;
+        ASSERT_NEAR(s.state().vertices[i].h, expected, 1e-9 * depth) << "vertex " << i;
+      }
+    }
+  }
+}
+
+TEST(Surface, VolumeConservingShapeKeepsTheVolumeOfAPlane) {
+  // Displaced volume sum(h_i * cell area) after settling: zero relative to the
+  // pushed-in volume, which itself matches pi R^2 depth 256/3125.
+  const double spacing = 5e-4, radius = 0.025, depth = 0.004;
+  const MeshPtr m = plane(201, spacing);
+  auto volumes = [&](ShapeKind kind) {
+    DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+    const Contact c = contact_near(*m, Vec3(1.3e-4, -2.1e-4, 0), depth, kind, radius);
+    s.set_contacts({&c, 1});
+    run(s, 400, 0.01);
+    double net = 0, pushed = 0;
+    for (const VertexState& v : s.state().vertices) {
+      net += v.h * spacing * spacing;
+      if (v.h < 0) pushed -= v.h * spacing * spacing;
+    }
+    return std::pair{net, pushed};
+  };
+  const auto [net, pushed] = volumes(ShapeKind::VolumeConserving);
+  EXPECT_NEAR(pushed, M_PI * radius * radius * depth * 256.0 / 3125.0, 1e-2 * pushed);
+  EXPECT_LT(std::abs(net), 1e-3 * pushed);
+  // A shape that only pushes in does change the volume (the check can fail).
+  const auto [net_w, pushed_w] = volumes(ShapeKind::Wendland);
+  EXPECT_GT(std::abs(net_w), 0.5 * pushed_w);
+}
+
+// ---------------------------------------------------------------------------
+// Normal correction (eq. 3).
+
+TEST(Surface, NormalCorrectionIsTheExactNormalOnAPlane) {
+  // On a plane the deformed surface is z = -depth S(r): its unit normal,
+  // from central differences of that height, must match eq. (3), and the
+  // normals recomputed from the deformed mesh must agree closely.
+  const double spacing = 5e-4, radius = 0.02, depth = 0.002;
+  const MeshPtr m = plane(121, spacing);
+  for (ShapeKind kind : {ShapeKind::Gaussian, ShapeKind::Wendland, ShapeKind::VolumeConserving}) {
+    SCOPED_TRACE(int(kind));
+    DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+    const Contact c = contact_near(*m, Vec3(1e-4, 2e-4, 0), depth, kind, radius);
+    s.set_contacts({&c, 1});
+    run(s, 300, 0.01);
+    const std::vector<Vec3> geo = geometric_normals(s);
+    auto z = [&](double x, double y) { return -depth * c.shape.value((Vec3(x, y, 0) - c.point).norm()); };
+    double worst_fd = 0, worst_geo = 0, max_tilt = 0;
+    const double e = 1e-7;
+    for (Index i = 0; i < m->vertex_count(); ++i) {
+      const Vec3& p = m->positions[i];
+      const double r = (p - c.point).norm();
+      if (r > 0.95 * radius || r < 1e-9) continue;  // the Gaussian's cut at R has no derivative
+      const Vec3 exact = Vec3(-(z(p.x() + e, p.y()) - z(p.x() - e, p.y())) / (2 * e),
+                              -(z(p.x(), p.y() + e) - z(p.x(), p.y() - e)) / (2 * e), 1.0)
+                             .normalized();
+      worst_fd = std::max(worst_fd, angle(s.deformed_normal(i), exact));
+      worst_geo = std::max(worst_geo, angle(s.deformed_normal(i), geo[i]));
+      max_tilt = std::max(max_tilt, angle(exact, Vec3::UnitZ()));
+    }
+    EXPECT_LT(worst_fd, 1e-7);
+    EXPECT_GT(max_tilt, 0.05);
+    EXPECT_LT(worst_geo, 0.02 * max_tilt);
+  }
+}
+
+TEST(Surface, NormalCorrectionMatchesRecomputedNormalsOnASphere) {
+  // Small deformation of a curved surface: eq. (3) stays close to the normals
+  // recomputed geometrically from the deformed positions, and much closer than
+  // the undeformed normals are.
+  const double R = 0.1, radius = 0.03, depth = 0.001;
+  const MeshPtr m = sphere(40000, R);
+  for (ShapeKind kind : {ShapeKind::Wendland, ShapeKind::VolumeConserving}) {
+    SCOPED_TRACE(int(kind));
+    DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+    const Contact c = sphere_contact(*m, R, Vec3(0.3, 0.2, 0.93), depth, kind, radius);
+    s.set_contacts({&c, 1});
+    run(s, 300, 0.01);
+    const std::vector<Vec3> geo = geometric_normals(s);
+    double worst = 0, worst_uncorrected = 0, sum = 0, sum_uncorrected = 0;
+    int count = 0;
+    for (Index i = 0; i < m->vertex_count(); ++i) {
+      const double r = (m->positions[i] - c.point).norm();
+      if (r >= radius) continue;
+      const double err = angle(s.deformed_normal(i), geo[i]);
+      const double err0 = angle(m->normals[i], geo[i]);
+      worst = std::max(worst, err);
+      worst_uncorrected = std::max(worst_uncorrected, err0);
+      sum += err;
+      sum_uncorrected += err0;
+      ++count;
+    }
+    // The shapes tilt normals by up to ~2.1 depth / radius = 0.07 rad. What
+    // eq. (3) leaves out is of relative order |h| / R_sphere (the displaced
+    // surface is scaled by 1 + h/R) and (r / 2R_sphere)^2 (chord against arc),
+    // a few percent here, plus the mesh's own discretisation.
+    EXPECT_GT(worst_uncorrected, 0.04);
+    EXPECT_LT(worst, 0.1 * worst_uncorrected);
+    EXPECT_LT(sum, 0.08 * sum_uncorrected);
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Superposition of contacts.
+
+TEST(Surface, LinearContactsSuperpose) {
+  const double R = 0.1, radius = 0.025;
+  const MeshPtr m = sphere(10000, R);
+  const Contact a = sphere_contact(*m, R, Vec3(0, 0, 1), 0.002, ShapeKind::Wendland, radius);
+  const Contact far = sphere_contact(*m, R, Vec3(1, 0, 0.2), 0.003, ShapeKind::VolumeConserving, radius);
+  const Contact overlapping = sphere_contact(*m, R, Vec3(0.12, 0.05, 1), 0.0015, ShapeKind::Gaussian, radius);
+  ASSERT_GT((a.point - far.point).norm(), 2 * radius);
+  ASSERT_LT((a.point - overlapping.point).norm(), 0.6 * radius);
+
+  auto settle = [&](std::vector<Contact> contacts) {
+    auto s = std::make_unique<DeformableSurface>(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+    s->set_contacts(contacts);
+    run(*s, 300, 0.01);
+    return s;
+  };
+  const auto sa = settle({a});
+  for (const Contact& b : {far, overlapping}) {
+    const auto sb = settle({b});
+    const auto both = settle({a, b});
+    for (Index i = 0; i < m->vertex_count(); ++i) {
+      ASSERT_NEAR(both->state().vertices[i].h, sa->state().vertices[i].h + sb->state().vertices[i].h, 1e-15);
+      ASSERT_LT((both->normal_correction(i) - sa->normal_correction(i) - sb->normal_correction(i)).norm(), 1e-15);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Active set (section III.A): same results as the full step, cost bounded by the field.
+
+// A script of contacts over time: press, slide, two fingers, release.
+std::vector<std::vector<Contact>> script(const SurfaceMesh& m, double R) {
+  std::vector<std::vector<Contact>> frames;
+  for (int n = 0; n < 40; ++n) {
+    frames.push_back({sphere_contact(m, R, Vec3(0.1 * n / 40.0, 0, 1), 0.004 * std::min(1.0, n / 10.0),
+                                     ShapeKind::Wendland, 0.03)});
+  }
+  for (int n = 0; n < 25; ++n) {
+    frames.push_back({sphere_contact(m, R, Vec3(0.1, 0, 1), 0.004, ShapeKind::VolumeConserving, 0.03),
+                      sphere_contact(m, R, Vec3(0, 1, 0.3), 0.002, ShapeKind::Gaussian, 0.02)});
+  }
+  for (int n = 0; n < 400; ++n) frames.push_back({});
+  return frames;
+}
+
+// Linear everywhere, with patches of the other two models.
+MaterialArrays mixed_materials(const SurfaceMesh& m) {
+  MaterialArrays mats = MaterialArrays::uniform(m.vertex_count(), linear());
+  for (Index i = 0; i < m.vertex_count(); ++i) {
+    const Vec3& p = m.positions[i];
+    Material mat = linear();
+    if (p.x() > 0.02) mat.model = LocalModelKind::Exponential;
+    if (p.y() > 0.05) mat.model = LocalModelKind::Viscoelastic;
+    mat.stiffness = 300 + 4000 * std::abs(p.z());  // a smooth stiffness map
+    mats.set(i, mat);
+  }
+  return mats;
+}
+
+TEST(Surface, ActiveSetStepEqualsFullStep) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(6000, R);
+  DeformableSurface active(m, mixed_materials(*m));
+  DeformableSurface full(m, mixed_materials(*m));
+  const auto frames = script(*m, R);
+  for (std::size_t n = 0; n < frames.size(); ++n) {
+    const double dt = n % 3 == 0 ? 2e-3 : 1e-3;  // changing dt exercises the coefficient cache
+    active.set_contacts(frames[n]);
+    full.set_contacts(frames[n]);
+    active.step(dt);
+    full.step_full(dt);
+    ASSERT_TRUE(same_bits(active.state(), full.state())) << "frame " << n;
+    ASSERT_TRUE(same_bits(active.stream(), full.stream())) << "frame " << n;
+    ASSERT_EQ(active.active_count(), full.active_count()) << "frame " << n;
+  }
+}
+
+TEST(Surface, ActiveCountIsBoundedByTheFieldSupport) {
+  const double R = 0.1, radius = 0.02;
+  const MeshPtr m = sphere(20000, R);
+  DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+  EXPECT_EQ(s.active_count(), 0u);
+  const Contact c = sphere_contact(*m, R, Vec3(0.2, -0.4, 0.9), 0.003, ShapeKind::Wendland, radius);
+  std::size_t support = 0;
+  for (const Vec3& p : m->positions) support += (p - c.point).norm() < radius;
+  ASSERT_GT(support, 50u);
+  ASSERT_LT(support, m->vertex_count() / 20);
+
+  s.set_contacts({&c, 1});
+  for (int n = 0; n < 50; ++n) {
+    s.step(1e-3);
+    EXPECT_EQ(s.active_count(), support);
+  }
+  // Released: the field's vertices ring down, come to rest exactly and leave.
+  s.set_contacts({});
+  int steps = 0;
+  while (s.active_count() > 0 && steps < 100000) {
+    s.step(1e-3);
+    EXPECT_LE(s.active_count(), support);
+    ++steps;
+  }
+  EXPECT_EQ(s.active_count(), 0u);
+  for (const VertexState& v : s.state().vertices) {
+    ASSERT_EQ(v.h, 0.0);
+    ASSERT_EQ(v.v, 0.0);
+    ASSERT_EQ(v.q, 0.0);
+  }
+  for (float f : s.stream()) ASSERT_EQ(f, 0.0f);
+}
+
+// ---------------------------------------------------------------------------
+// Propagation (section III.B).
+
+TEST(Surface, TopologicalAndDistanceNormalAgreeOnASphere) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(8000, R);
+  SurfaceOptions bfs_options;
+  bfs_options.propagation = Propagation::Topological;
+  SurfaceOptions scan_options;
+  scan_options.propagation = Propagation::DistanceNormal;
+  DeformableSurface bfs(m, mixed_materials(*m), bfs_options);
+  DeformableSurface scan(m, mixed_materials(*m), scan_options);
+  const auto frames = script(*m, R);
+  for (std::size_t n = 0; n < 120; ++n) {
+    bfs.set_contacts(frames[n]);
+    scan.set_contacts(frames[n]);
+    bfs.step(1e-3);
+    scan.step(1e-3);
+    for (Index i = 0; i < m->vertex_count(); ++i) ASSERT_EQ(bfs.field_force(i), scan.field_force(i));
+    ASSERT_TRUE(same_bits(bfs.state(), scan.state())) << "frame " << n;
+  }
+}
+
+TEST(Surface, DistanceNormalSkipsVerticesFacingAway) {
+  // A field wider than the whole sphere: by distance every vertex is inside,
+  // the normal test keeps only those with N0 . n >= min_normal_cosine.
+  const double R = 0.05;
+  const MeshPtr m = sphere(3000, R);
+  const Contact c = sphere_contact(*m, R, Vec3(0, 0, 1), 0.001, ShapeKind::Wendland, 0.12);
+  for (double min_cos : {-1.0, 0.0, 0.5}) {
+    SurfaceOptions o;
+    o.propagation = Propagation::DistanceNormal;
+    o.min_normal_cosine = min_cos;
+    DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()), o);
+    s.set_contacts({&c, 1});
+    s.step(1e-3);
+    std::size_t affected = 0;
+    for (Index i = 0; i < m->vertex_count(); ++i) {
+      const bool expected = m->normals[i].dot(c.normal) >= min_cos;
+      ASSERT_EQ(s.field_force(i) != 0.0, expected) << "vertex " << i << " min_cos " << min_cos;
+      affected += expected;
+    }
+    EXPECT_EQ(s.active_count(), affected);
+  }
+}
+
+TEST(Surface, TopologicalContactWithoutSeedFallsBackToTheScan) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(4000, R);
+  Contact c = sphere_contact(*m, R, Vec3(1, 1, 1), 0.002, ShapeKind::Wendland, 0.03);
+  DeformableSurface seeded(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+  DeformableSurface unseeded(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+  seeded.set_contacts({&c, 1});
+  c.vertex = kNoIndex;
+  unseeded.set_contacts({&c, 1});
+  seeded.step(1e-3);
+  unseeded.step(1e-3);
+  EXPECT_GT(seeded.active_count(), 0u);
+  EXPECT_TRUE(same_bits(seeded.state(), unseeded.state()));
+}
+
+// ---------------------------------------------------------------------------
+// Determinism and snapshots.
+
+TEST(Surface, StepsAreDeterministicAndSnapshotsRoundTrip) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(5000, R);
+  const auto frames = script(*m, R);
+  DeformableSurface a(m, mixed_materials(*m));
+  DeformableSurface b(m, mixed_materials(*m));
+  // Snapshots while two contacts press, and after release while vertices ring down.
+  const std::size_t snap_at[] = {50, 70};
+  SurfaceState snapshots[2];
+  for (std::size_t n = 0; n < frames.size(); ++n) {
+    a.set_contacts(frames[n]);
+    b.set_contacts(frames[n]);
+    a.step(1e-3);
+    b.step(1e-3);
+    ASSERT_TRUE(same_bits(a.state(), b.state())) << "frame " << n;
+    ASSERT_TRUE(same_bits(a.stream(), b.stream())) << "frame " << n;
+    for (int k = 0; k < 2; ++k) {
+      if (n == snap_at[k]) snapshots[k] = a.state();
+    }
+  }
+  ASSERT_GT(a.state().time, 0.0);
+  // A fresh surface restored from a snapshot continues bit-identically.
+  for (int k = 0; k < 2; ++k) {
+    SCOPED_TRACE(k);
+    DeformableSurface c(m, mixed_materials(*m));
+    c.set_state(snapshots[k]);
+    EXPECT_TRUE(same_bits(c.state(), snapshots[k]));
+    EXPECT_GT(c.active_count(), 0u);
+    for (std::size_t n = snap_at[k] + 1; n < frames.size(); ++n) {
+      c.set_contacts(frames[n]);
+      c.step(1e-3);
+    }
+    EXPECT_TRUE(same_bits(c.state(), a.state()));
+    EXPECT_TRUE(same_bits(c.stream(), a.stream()));
+    EXPECT_EQ(c.active_count(), a.active_count());
+  }
+}
+
+TEST(Surface, SetStateRejectsSnapshotsThatDoNotFit) {
+  const MeshPtr m = sphere(500, 0.1);
+  DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+  SurfaceState wrong;
+  wrong.vertices.resize(3);
+  try {
+    s.set_state(wrong);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "set_state: the snapshot has 3 vertices but the mesh has " +
+                                         std::to_string(m->vertex_count()));
+  }
+  SurfaceState bad = s.state();
+  bad.vertices[7].v = std::nan("");
+  try {
+    s.set_state(bad);
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "set_state: vertex 7 has a non-finite state");
+  }
+}
+
+// ---------------------------------------------------------------------------
+// The (nx, ny, nz, h) stream of section IV.
+
+TEST(Surface, DirtyRangesCoverExactlyTheChangedVertices) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(6000, R);
+  DeformableSurface s(m, mixed_materials(*m));
+  const Index count = static_cast<Index>(m->vertex_count());
+  // The first upload covers the whole mesh; then nothing until something moves.
+  const auto first = s.take_dirty_ranges();
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_EQ(first[0], (IndexRange{0, count}));
+  s.step(1e-3);
+  EXPECT_TRUE(s.take_dirty_ranges().empty());
+
+  const auto frames = script(*m, R);
+  std::vector<float> before(s.stream().begin(), s.stream().end());
+  for (std::size_t n = 0; n < frames.size(); ++n) {
+    s.set_contacts(frames[n]);
+    s.step(1e-3);
+    const auto ranges = s.take_dirty_ranges();
+    // Sorted, disjoint and merged wherever contiguous.
+    for (std::size_t k = 0; k < ranges.size(); ++k) {
+      ASSERT_LT(ranges[k].begin, ranges[k].end);
+      if (k > 0) {
+        ASSERT_GT(ranges[k].begin, ranges[k - 1].end);
+      }
+    }
+    // Exactly the vertices whose four floats changed (compared bit by bit).
+    std::vector<bool> covered(count, false);
+    for (const IndexRange& r : ranges) {
+      for (Index i = r.begin; i < r.end; ++i) covered[i] = true;
+    }
+    const std::span<const float> now = s.stream();
+    for (Index i = 0; i < count; ++i) {
+      const bool changed = std::memcmp(&before[4 * i], &now[4 * i], 4 * sizeof(float)) != 0;
+      ASSERT_EQ(covered[i], changed) << "frame " << n << " vertex " << i;
+    }
+    // The stream holds the float32 correction and height of every vertex.
+    for (Index i = 0; i < count; ++i) {
+      const Vec3 corr = s.normal_correction(i);
+      ASSERT_EQ(now[4 * i + 0], static_cast<float>(corr.x()));
+      ASSERT_EQ(now[4 * i + 1], static_cast<float>(corr.y()));
+      ASSERT_EQ(now[4 * i + 2], static_cast<float>(corr.z()));
+      ASSERT_EQ(now[4 * i + 3], static_cast<float>(s.state().vertices[i].h));
+    }
+    before.assign(now.begin(), now.end());
+  }
+  // set_state marks everything dirty again.
+  SurfaceState rest;
+  rest.vertices.assign(count, VertexState{});
+  s.set_state(rest);
+  const auto all = s.take_dirty_ranges();
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_EQ(all[0], (IndexRange{0, count}));
+
+  // A vertex can leave a field without moving (restored to rest under a
+  // contact, then released): its correction in the stream must still clear.
+  const Contact c = sphere_contact(*m, R, Vec3(0, 0, 1), 0.003, ShapeKind::Wendland, 0.03);
+  s.set_contacts({&c, 1});
+  s.step(1e-3);
+  s.set_state(rest);
+  s.take_dirty_ranges();
+  std::size_t with_correction = 0;
+  for (Index i = 0; i < count; ++i) with_correction += s.normal_correction(i) != Vec3::Zero();
+  ASSERT_GT(with_correction, 50u);
+  s.set_contacts({});
+  s.step(1e-3);
+  std::size_t dirty = 0;
+  for (const IndexRange& r : s.take_dirty_ranges()) dirty += r.end - r.begin;
+  EXPECT_EQ(dirty, with_correction);
+  for (float f : s.stream()) ASSERT_EQ(f, 0.0f);
+}
+
+TEST(Surface, ResetReturnsEveryVertexToRest) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(3000, R);
+  DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+  const Contact c = sphere_contact(*m, R, Vec3(0, 0, 1), 0.003, ShapeKind::Wendland, 0.03);
+  s.set_contacts({&c, 1});
+  run(s, 20, 1e-3);
+  s.take_dirty_ranges();
+  ASSERT_GT(s.active_count(), 0u);
+  s.reset();
+  EXPECT_EQ(s.active_count(), 0u);
+  EXPECT_TRUE(s.contacts().empty());
+  EXPECT_EQ(s.state().time, 0.0);
+  for (Index i = 0; i < m->vertex_count(); ++i) {
+    ASSERT_EQ(s.state().vertices[i].h, 0.0);
+    ASSERT_EQ(s.state().vertices[i].v, 0.0);
+    ASSERT_EQ(s.field_force(i), 0.0);
+    ASSERT_EQ(s.normal_correction(i), Vec3::Zero());
+  }
+  for (float f : s.stream()) ASSERT_EQ(f, 0.0f);
+  // Only the vertices of the contact's field were touched.
+  std::size_t dirty = 0;
+  for (const IndexRange& r : s.take_dirty_ranges()) dirty += r.end - r.begin;
+  std::size_t support = 0;
+  for (const Vec3& p : m->positions) support += (p - c.point).norm() < 0.03;
+  EXPECT_EQ(dirty, support);
+}
+
+// ---------------------------------------------------------------------------
+// Materials, queries and bad input.
+
+TEST(Surface, MaterialChangesTakeEffectAtTheNextStep) {
+  const MeshPtr m = plane(41, 1e-3);
+  DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+  const Contact c = contact_near(*m, Vec3::Zero(), 0.002, ShapeKind::Wendland, 0.01);
+  s.set_contacts({&c, 1});
+  s.step(1e-3);
+  const Index v = c.vertex;
+  EXPECT_NEAR(s.field_force(v), 500.0 * -0.002, 1e-12);  // k t at the centre, S(0) = 1
+  Material stiff = linear();
+  stiff.stiffness = 2000;
+  s.set_material(v, stiff);
+  EXPECT_EQ(s.materials().at(v), stiff);
+  s.step(1e-3);
+  EXPECT_NEAR(s.field_force(v), 2000.0 * -0.002, 1e-12);
+  // Deformed position and normal follow eqs. (2) and (3).
+  const Vec3 p = s.deformed_position(v);
+  EXPECT_NEAR(p.z(), s.state().vertices[v].h, 1e-18);
+  EXPECT_NEAR(s.deformed_normal(v).norm(), 1.0, 1e-15);
+}
+
+TEST(Surface, BadConstructionIsRejectedWithExactMessages) {
+  const MeshPtr m = sphere(500, 0.1);
+  const std::size_t n = m->vertex_count();
+  auto message = [](auto&& make) -> std::string {
+    try {
+      make();
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "no exception";
+  };
+  EXPECT_EQ(message([&] { DeformableSurface(nullptr, MaterialArrays{}); }), "DeformableSurface: the mesh is null");
+  auto raw = std::make_shared<SurfaceMesh>();
+  raw->positions = {Vec3::Zero(), Vec3::UnitX(), Vec3::UnitY()};
+  raw->triangles = {{0, 1, 2}};
+  EXPECT_EQ(message([&] { DeformableSurface(raw, MaterialArrays::uniform(3, linear())); }),
+            "DeformableSurface: the mesh has 3 vertices but 0 normals (finalize it)");
+  EXPECT_EQ(message([&] { DeformableSurface(m, MaterialArrays::uniform(n - 1, linear())); }),
+            "materials: array 'model' has " + std::to_string(n - 1) + " entries, expected " + std::to_string(n));
+  SurfaceOptions o;
+  o.rest_threshold = -1;
+  EXPECT_EQ(message([&] { DeformableSurface(m, MaterialArrays::uniform(n, linear()), o); }),
+            "SurfaceOptions: rest_threshold must be non-negative and finite, got -1 m");
+  o = {};
+  o.min_normal_cosine = 2;
+  EXPECT_EQ(message([&] { DeformableSurface(m, MaterialArrays::uniform(n, linear()), o); }),
+            "SurfaceOptions: min_normal_cosine must be in [-1, 1], got 2");
+  DeformableSurface s(m, MaterialArrays::uniform(n, linear()));
+  Material bad = linear();
+  bad.mass = -1;
+  EXPECT_EQ(message([&] { s.set_material(4, bad); }), "material of vertex 4: mass must be positive and finite, got -1 kg");
+  EXPECT_EQ(message([&] { s.set_material(Index(n), linear()); }),
+            "set_material: vertex " + std::to_string(n) + " is out of range (the mesh has " + std::to_string(n) +
+                " vertices)");
+}
+
+TEST(Surface, WarmStepsAllocateNothing) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(4000, R);
+  DeformableSurface s(m, mixed_materials(*m));
+  const auto frames = script(*m, R);
+  // First pass grows the buffers; the second, identical pass must not allocate.
+  for (int pass = 0; pass < 2; ++pass) {
+    long allocations = 0;
+    for (const auto& frame : frames) {
+      s.set_contacts(frame);
+      test::start_counting_allocations();
+      s.step(1e-3);
+      allocations += test::stop_counting_allocations();
+    }
+    if (pass == 1) {
+      EXPECT_EQ(allocations, 0);
+    }
+    s.reset();
+  }
+}
+
+}  // namespace
+}  // namespace palpa::deform
