@@ -1,0 +1,292 @@
+// One haptic tick against closed forms: a linear material on a sphere with
+// radial normals gives F = k depth along the outward normal.
+
+#include "haptics/probe_tick.h"
+#include "common/test_support.h"
+#include "mesh/generate.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <memory>
+#include <new>
+#include <random>
+#include <vector>
+
+// Counts heap allocations made by this test program, so a test can check
+// that the haptic path allocates nothing.
+namespace {
+std::atomic<long> g_allocations{0};
+}  // namespace
+
+// The replacements pair malloc with free on purpose; GCC cannot see that
+// every new here comes from this malloc.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#pragma GCC diagnostic pop
+
+namespace palpa::haptics {
+namespace {
+
+constexpr double kRadius = 0.05;  // m
+
+// A sphere whose vertex normals are exactly radial: the virtual vertex under
+// a probe P is then exactly on the ray through P and its normal is P/|P|;
+// the depth is R - |P| minus at most the sagitta of an edge.
+struct SphereScene {
+  std::shared_ptr<mesh::SurfaceMesh> mesh;
+  double sagitta = 0;  // m, h^2 / 8R for the longest edge h
+  std::unique_ptr<deform::DeformableSurface> surface;
+  std::unique_ptr<collision::VertexTree> tree;
+
+  explicit SphereScene(const deform::Material& material, std::size_t vertices = 20000) {
+    mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_sphere(vertices, kRadius));
+    for (std::size_t i = 0; i < mesh->vertex_count(); ++i) mesh->normals[i] = mesh->positions[i].normalized();
+    double h = 0;
+    for (const auto& t : mesh->triangles)
+      for (int k = 0; k < 3; ++k) h = std::max(h, (mesh->positions[t[k]] - mesh->positions[t[(k + 1) % 3]]).norm());
+    sagitta = h * h / (8 * kRadius);
+    surface = std::make_unique<deform::DeformableSurface>(
+        mesh, deform::MaterialArrays::uniform(mesh->vertex_count(), material));
+    tree = std::make_unique<collision::VertexTree>(mesh->positions);
+  }
+
+  ProbeOutput tick(const ProbeInput& in, const ForceParams& params = {}) const {
+    ProbeMemory memory;
+    ProbeOutput out;
+    haptic_tick(*surface, *tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1), params,
+                deform::ShapeFunction{});
+    return out;
+  }
+};
+
+deform::Material linear(double k, double b = 0) {
+  deform::Material m;
+  m.model = deform::LocalModelKind::Linear;
+  m.stiffness = k;
+  m.damping = b;
+  return m;
+}
+
+Vec3 direction(std::mt19937& rng) {
+  std::normal_distribution<double> g;
+  return Vec3(g(rng), g(rng), g(rng)).normalized();
+}
+
+TEST(HapticTick, LinearSphereForceIsStiffnessTimesDepth) {
+  const double k = 400;  // N/m
+  const SphereScene scene(linear(k));
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> depth(0.0005, 0.004);
+  for (int i = 0; i < 200; ++i) {
+    const Vec3 dir = direction(rng);
+    const double d = depth(rng);
+    const ProbeOutput out = scene.tick({dir * (kRadius - d), Vec3::Zero()});
+    ASSERT_TRUE(out.in_contact) << "probe " << i;
+    // |F| = k depth with depth in [d - sagitta, d]; direction outward radial.
+    EXPECT_LE(out.force.norm(), k * d * (1 + 1e-12));
+    EXPECT_GE(out.force.norm(), k * (d - scene.sagitta) * (1 - 1e-12));
+    EXPECT_LE((out.force.normalized() - dir).norm(), 1e-12);
+    EXPECT_NEAR(out.normal_reaction, k * out.height.depth, 1e-12);
+    // The contact handed to the surface.
+    EXPECT_LE((out.contact.point - out.contact.point.norm() * dir).norm(), 1e-12);
+    EXPECT_LE((out.contact.normal - dir).norm(), 1e-12);
+    EXPECT_EQ(out.contact.depth, out.height.depth);
+    EXPECT_EQ(out.contact.vertex, collision::nearest_brute_force(scene.mesh->positions, dir * (kRadius - d)).vertex);
+    EXPECT_EQ(out.nearest_vertex, out.contact.vertex);
+  }
+}
+
+TEST(HapticTick, OutsideGivesNoForce) {
+  const SphereScene scene(linear(400));
+  std::mt19937 rng(12);
+  for (int i = 0; i < 50; ++i) {
+    const Vec3 dir = direction(rng);
+    for (double r : {kRadius + 1e-3, kRadius + 0.02, 3 * kRadius}) {
+      const ProbeOutput out = scene.tick({dir * r, Vec3(0.1, 0, 0)});
+      EXPECT_FALSE(out.in_contact);
+      EXPECT_EQ(out.force, Vec3::Zero());
+      EXPECT_EQ(out.normal_reaction, 0.0);
+    }
+  }
+}
+
+TEST(HapticTick, SeveralProbesAreIndependent) {
+  const double k = 250;
+  const SphereScene scene(linear(k));
+  // Three probes: two inside at different depths on different sides, one outside.
+  const std::vector<ProbeInput> probes = {{Vec3(0, 0, kRadius - 0.002), Vec3::Zero()},
+                                          {Vec3(kRadius - 0.001, 0, 0), Vec3::Zero()},
+                                          {Vec3(0, -kRadius - 0.003, 0), Vec3::Zero()}};
+  std::vector<ProbeMemory> memory(3);
+  std::vector<ProbeOutput> out(3);
+  haptic_tick(*scene.surface, *scene.tree, probes, memory, out, ForceParams{}, deform::ShapeFunction{});
+  const double depths[] = {0.002, 0.001};
+  const Vec3 dirs[] = {Vec3::UnitZ(), Vec3::UnitX()};
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_TRUE(out[i].in_contact);
+    EXPECT_LE((out[i].force - k * depths[i] * dirs[i]).norm(), k * scene.sagitta + 1e-12) << "probe " << i;
+    // The same probe alone gives the same answer.
+    EXPECT_EQ(scene.tick(probes[i]).force, out[i].force);
+  }
+  EXPECT_FALSE(out[2].in_contact);
+  EXPECT_EQ(out[2].force, Vec3::Zero());
+}
+
+TEST(HapticTick, DampingAndFriction) {
+  // Linear model: Fn = k depth - b (v . N); moving in at 2 cm/s adds b * 0.02.
+  const double k = 300, b = 5;
+  const SphereScene scene(linear(k, b));
+  ForceParams params;
+  params.friction = 0.4;
+  params.max_force = 100;
+  const Vec3 p(0, 0, kRadius - 0.002);
+  const ProbeOutput rest = scene.tick({p, Vec3::Zero()}, params);
+  const double fn0 = rest.normal_reaction;
+  EXPECT_NEAR(fn0, k * 0.002, k * scene.sagitta);
+  const ProbeOutput pressing = scene.tick({p, Vec3(0, 0, -0.02)}, params);
+  EXPECT_NEAR(pressing.normal_reaction, fn0 + b * 0.02, 1e-12);
+  EXPECT_LE((pressing.force - Vec3(0, 0, fn0 + b * 0.02)).norm(), 1e-12);
+  // Withdrawing fast: the reaction would be negative, so it is zero (no pull).
+  const ProbeOutput pulling = scene.tick({p, Vec3(0, 0, 1.0)}, params);
+  EXPECT_TRUE(pulling.in_contact);
+  EXPECT_EQ(pulling.normal_reaction, 0.0);
+  EXPECT_EQ(pulling.force, Vec3::Zero());
+  // Sliding along +x at 5 cm/s: friction K Fn along -x, normal part unchanged.
+  const ProbeOutput sliding = scene.tick({p, Vec3(0.05, 0, 0)}, params);
+  EXPECT_NEAR(sliding.normal_reaction, fn0, 1e-12);
+  EXPECT_LE((sliding.force - Vec3(-0.4 * fn0, 0, fn0)).norm(), 1e-12);
+}
+
+TEST(HapticTick, ForceIsClampedToTheDeviceLimit) {
+  const SphereScene scene(linear(1e5));  // 1e5 N/m * 3 mm = 300 N
+  ForceParams params;
+  params.max_force = 8;
+  const ProbeOutput out = scene.tick({Vec3(0, kRadius - 0.003, 0), Vec3::Zero()}, params);
+  EXPECT_TRUE(out.in_contact);
+  EXPECT_GT(out.normal_reaction, 290.0);
+  EXPECT_NEAR(out.force.norm(), 8.0, 1e-12);
+  EXPECT_LE((out.force.normalized() - Vec3::UnitY()).norm(), 1e-12);
+}
+
+TEST(HapticTick, DeformedSurfaceBelowTheProbeIsNoContact) {
+  // Every vertex pushed in by 4 mm: a probe 2 mm deep is above the deformed
+  // surface (offset -2 mm > h = -4 mm), so it touches nothing; 5 mm deep it does.
+  const SphereScene scene(linear(400));
+  deform::SurfaceState s = scene.surface->state();
+  for (auto& v : s.vertices) v.h = -0.004;
+  scene.surface->set_state(s);
+  const ProbeOutput shallow = scene.tick({Vec3(0, 0, kRadius - 0.002), Vec3::Zero()});
+  EXPECT_FALSE(shallow.in_contact);
+  EXPECT_EQ(shallow.force, Vec3::Zero());
+  EXPECT_NEAR(shallow.height.surface_height, -0.004, 1e-15);
+  const ProbeOutput deep = scene.tick({Vec3(0, 0, kRadius - 0.005), Vec3::Zero()});
+  EXPECT_TRUE(deep.in_contact);
+  // The local model reacts to the probe's own height: k * 5 mm.
+  EXPECT_NEAR(deep.normal_reaction, 400 * 0.005, 400 * scene.sagitta);
+}
+
+TEST(HapticTick, ViscoelasticAtRestReactsWithBothSprings) {
+  // Zener model with relaxed dashpot state q = 0: Fn = k d + k2 d.
+  deform::Material m;
+  m.model = deform::LocalModelKind::Viscoelastic;
+  m.stiffness = 300;
+  m.k2 = 200;
+  m.damping = 0;
+  const SphereScene scene(m);
+  const ProbeOutput out = scene.tick({Vec3(kRadius - 0.002, 0, 0), Vec3::Zero()});
+  EXPECT_TRUE(out.in_contact);
+  EXPECT_NEAR(out.normal_reaction, 500 * 0.002, 500 * scene.sagitta);
+  EXPECT_NEAR(out.normal_reaction, 500 * out.height.depth, 1e-12);
+}
+
+TEST(HapticTick, StiffnessIsInterpolatedAtTheVirtualVertex) {
+  // On a flat grid (normals +z) a stiffness linear in position, k = 1000 +
+  // 1e4 x + 5e3 y (N/m), is reproduced exactly by barycentric interpolation:
+  // the probe at (x, y, -d) feels (1000 + 1e4 x + 5e3 y) d.
+  auto plane = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(21, 21, 0.005));
+  deform::MaterialArrays mats = deform::MaterialArrays::uniform(plane->vertex_count(), linear(1000));
+  for (Index i = 0; i < plane->vertex_count(); ++i)
+    mats.stiffness[i] = 1000 + 1e4 * plane->positions[i].x() + 5e3 * plane->positions[i].y();
+  const deform::DeformableSurface surface(plane, mats);
+  const collision::VertexTree tree(plane->positions);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.045, 0.045);
+  for (int i = 0; i < 100; ++i) {
+    const double x = u(rng), y = u(rng), d = 0.003;
+    const ProbeInput in{Vec3(x, y, -d), Vec3::Zero()};
+    ProbeMemory memory;
+    ProbeOutput out;
+    haptic_tick(surface, tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1), ForceParams{},
+                deform::ShapeFunction{});
+    ASSERT_TRUE(out.in_contact);
+    const double fn = (1000 + 1e4 * x + 5e3 * y) * d;
+    EXPECT_NEAR(out.normal_reaction, fn, 1e-12);
+    EXPECT_LE((out.force - Vec3(0, 0, fn)).norm(), 1e-12);
+  }
+}
+
+TEST(HapticTick, SlidingProbeKeepsItsCursor) {
+  // A probe sliding 2 mm deep along a circle: with memory carried over, every
+  // tick matches the closed form and the nearest vertex is the true nearest.
+  const double k = 400;
+  const SphereScene scene(linear(k));
+  ProbeMemory memory;
+  for (int i = 0; i < 400; ++i) {
+    const double th = i * 1e-3;
+    const Vec3 dir(std::cos(th), std::sin(th), 0);
+    const ProbeInput in{dir * (kRadius - 0.002), Vec3(-std::sin(th), std::cos(th), 0) * 0.05};
+    ProbeOutput out;
+    haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1),
+                ForceParams{}, deform::ShapeFunction{});
+    ASSERT_TRUE(out.in_contact);
+    EXPECT_EQ(collision::nearest_brute_force(scene.mesh->positions, in.position).distance_sq,
+              (scene.mesh->positions[out.nearest_vertex] - in.position).squaredNorm());
+    EXPECT_NEAR(out.force.dot(dir), k * 0.002, k * scene.sagitta);
+  }
+}
+
+TEST(HapticTick, DoesNotAllocate) {
+  // Several probes in and out of contact, over many ticks: no heap allocation.
+  const SphereScene scene(linear(400));
+  std::vector<ProbeInput> probes = {{Vec3(0, 0, kRadius - 0.002), Vec3(0.01, 0, -0.01)},
+                                    {Vec3(kRadius + 0.001, 0, 0), Vec3::Zero()},
+                                    {Vec3(0, kRadius - 0.001, 0), Vec3(0, 0, 0.02)}};
+  std::vector<ProbeMemory> memory(probes.size());
+  std::vector<ProbeOutput> out(probes.size());
+  const long before = g_allocations.load();
+  for (int i = 0; i < 100; ++i) {
+    probes[0].position.x() += 1e-4;
+    haptic_tick(*scene.surface, *scene.tree, probes, memory, out, ForceParams{}, deform::ShapeFunction{});
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_TRUE(out[0].in_contact);
+  EXPECT_FALSE(out[1].in_contact);
+}
+
+TEST(HapticTick, NonFiniteProbeGivesNoForce) {
+  const SphereScene scene(linear(400), 2000);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const Vec3& p : {Vec3(nan, 0, 0), Vec3(0, inf, 0), Vec3(0, 0, -inf)}) {
+    const ProbeOutput out = scene.tick({p, Vec3::Zero()});
+    EXPECT_FALSE(out.in_contact);
+    EXPECT_EQ(out.force, Vec3::Zero());
+  }
+  // A non-finite velocity: treated as rest, force still finite (k depth).
+  const ProbeOutput out = scene.tick({Vec3(0, 0, kRadius - 0.002), Vec3(nan, 0, 0)});
+  EXPECT_TRUE(out.in_contact);
+  EXPECT_TRUE(out.force.allFinite());
+  EXPECT_NEAR(out.force.z(), 400 * 0.002, 400 * scene.sagitta);
+}
+
+}  // namespace
+}  // namespace palpa::haptics
