@@ -1,0 +1,257 @@
+// The headless render job: organ, probes, settling, offscreen picture.
+
+#include "render/render_job.h"
+
+#include "collision/contact.h"
+#include "collision/vertex_tree.h"
+#include "deform/surface.h"
+#include "haptics/probe_tick.h"
+#include "render/probe_view.h"
+#include "render/scene.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+namespace palpa::render {
+namespace {
+
+// Parses "a,b,c,..." into exactly n finite numbers.
+std::optional<std::vector<double>> numbers(const std::string& s, std::size_t n) {
+  std::vector<double> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const double x = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(x)) return std::nullopt;
+    v.push_back(x);
+  }
+  if (v.size() != n || (!s.empty() && s.back() == ',')) return std::nullopt;
+  return v;
+}
+
+double positive(const std::string& option, const std::string& value) {
+  auto v = numbers(value, 1);
+  if (!v || !((*v)[0] > 0)) throw RenderError(option + ": expected a positive number, got '" + value + "'");
+  return (*v)[0];
+}
+
+}  // namespace
+
+std::string render_usage(const std::string& program) {
+  return "usage: " + program +
+         " [options]\n"
+         "Renders an organ pressed by probes to a PNG, with no display.\n"
+         "  --mesh FILE            organ mesh (default: the bundled default organ)\n"
+         "  --unit auto|m|cm|mm    unit of the mesh file (default auto)\n"
+         "  --probe X,Y,Z,DEPTH    press DEPTH m into the surface point nearest (X,Y,Z) m (repeatable;\n"
+         "                         default: one probe 0.006 m into the organ's highest point)\n"
+         "  --output FILE.png      picture to write (default palpa-render.png)\n"
+         "  --size WxH             pixels (default 960x720)\n"
+         "  --gl auto|osmesa|egl   OpenGL backend (default auto: EGL on a GPU, else OSMesa)\n"
+         "  --path partial|vtk|cpu stream upload path (default partial)\n"
+         "  --settle SECONDS       simulated time before the picture (default 1)\n"
+         "  --stiffness N_PER_M    vertex stiffness (default 200)\n"
+         "  --damping NS_PER_M     vertex damping (default 2)\n"
+         "  --mass KG              vertex mass (default 0.001)\n"
+         "  --model linear|exponential|viscoelastic  local model (default linear)\n"
+         "  --shape gaussian|wendland|volume        shape function (default wendland)\n"
+         "  --radius M             shape-function support radius (default 0.025)\n"
+         "  --view X,Y,Z           direction from the organ to the eye (default: along the first probe)\n"
+         "  --help                 this text\n";
+}
+
+RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* help) {
+  RenderJobOptions o;
+  if (help) *help = false;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> const std::string& {
+      if (i + 1 >= args.size()) throw RenderError(a + ": needs a value");
+      return args[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      if (help) *help = true;
+    } else if (a == "--mesh") {
+      o.mesh = value();
+    } else if (a == "--unit") {
+      const std::string& v = value();
+      try {
+        o.unit = parse_mesh_unit(v);
+      } catch (const std::invalid_argument& e) {
+        throw RenderError("--unit: " + std::string(e.what()));
+      }
+    } else if (a == "--probe") {
+      const std::string& v = value();
+      auto n = numbers(v, 4);
+      if (!n || !((*n)[3] >= 0)) throw RenderError("--probe: expected X,Y,Z,DEPTH in metres, got '" + v + "'");
+      o.probes.push_back({Vec3((*n)[0], (*n)[1], (*n)[2]), (*n)[3]});
+    } else if (a == "--output") {
+      o.output = value();
+    } else if (a == "--size") {
+      const std::string& v = value();
+      int w = 0, h = 0;
+      char extra = 0;
+      if (std::sscanf(v.c_str(), "%dx%d%c", &w, &h, &extra) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192)
+        throw RenderError("--size: expected WxH with 16..8192 pixels each, got '" + v + "'");
+      o.width = w;
+      o.height = h;
+    } else if (a == "--gl") {
+      o.backend = parse_gl_backend(value());
+    } else if (a == "--path") {
+      const std::string& v = value();
+      if (v == "partial")
+        o.path = UploadPath::PartialTextureBuffer;
+      else if (v == "vtk")
+        o.path = UploadPath::VtkModified;
+      else if (v == "cpu")
+        o.path = UploadPath::CpuDisplaced;
+      else
+        throw RenderError("--path: expected partial, vtk or cpu, got '" + v + "'");
+    } else if (a == "--settle") {
+      o.settle_time = positive(a, value());
+    } else if (a == "--stiffness") {
+      o.material.stiffness = positive(a, value());
+    } else if (a == "--damping") {
+      o.material.damping = positive(a, value());
+    } else if (a == "--mass") {
+      o.material.mass = positive(a, value());
+    } else if (a == "--model") {
+      const std::string& v = value();
+      if (v == "linear")
+        o.material.model = deform::LocalModelKind::Linear;
+      else if (v == "exponential")
+        o.material.model = deform::LocalModelKind::Exponential;
+      else if (v == "viscoelastic")
+        o.material.model = deform::LocalModelKind::Viscoelastic;
+      else
+        throw RenderError("--model: expected linear, exponential or viscoelastic, got '" + v + "'");
+    } else if (a == "--shape") {
+      const std::string& v = value();
+      if (v == "gaussian")
+        o.shape.kind = deform::ShapeKind::Gaussian;
+      else if (v == "wendland")
+        o.shape.kind = deform::ShapeKind::Wendland;
+      else if (v == "volume")
+        o.shape.kind = deform::ShapeKind::VolumeConserving;
+      else
+        throw RenderError("--shape: expected gaussian, wendland or volume, got '" + v + "'");
+    } else if (a == "--radius") {
+      o.shape.radius = positive(a, value());
+    } else if (a == "--view") {
+      const std::string& v = value();
+      auto n = numbers(v, 3);
+      if (!n || Vec3((*n)[0], (*n)[1], (*n)[2]).norm() == 0)
+        throw RenderError("--view: expected a non-zero direction X,Y,Z, got '" + v + "'");
+      o.view_dir = Vec3((*n)[0], (*n)[1], (*n)[2]);
+    } else {
+      throw RenderError("unknown option '" + a + "' (see --help)");
+    }
+  }
+  return o;
+}
+
+RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
+  RenderJobResult result;
+
+  // The organ.
+  Organ organ = o.mesh.empty() ? load_default_organ() : load_organ(o.mesh, o.unit);
+  const auto& mesh = *organ.mesh;
+  {
+    std::ostringstream s;
+    const Vec3 ext = organ.facts.bbox_max - organ.facts.bbox_min;
+    s << organ.name << ": " << mesh.vertex_count() << " vertices, " << mesh.triangle_count() << " triangles, "
+      << ext.x() * 1e3 << " x " << ext.y() * 1e3 << " x " << ext.z() * 1e3 << " mm";
+    if (organ.unit_guessed) s << " (file unit guessed: " << organ.unit_m << " m)";
+    result.organ = s.str();
+  }
+  log << result.organ << "\n";
+  if (!organ.note.empty()) log << organ.note << "\n";
+
+  // The probes: tips below the surface points nearest to the requested ones.
+  collision::VertexTree tree(mesh.positions);
+  std::vector<ProbeSpec> specs = o.probes;
+  if (specs.empty()) {
+    Index top = 0;
+    for (Index i = 1; i < mesh.vertex_count(); ++i)
+      if (mesh.positions[i].z() > mesh.positions[top].z()) top = i;
+    specs.push_back({mesh.positions[top], 0.006});
+  }
+  std::vector<haptics::ProbeInput> inputs(specs.size());
+  std::vector<Vec3> axes(specs.size());
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    const auto nearest = tree.nearest(specs[k].point);
+    const auto sp = collision::locate_surface_point(mesh, specs[k].point, nearest.vertex);
+    inputs[k].position = sp.point - specs[k].depth * sp.normal;
+    axes[k] = sp.normal;
+  }
+
+  // Settle: haptic ticks feed contacts to the surface, which steps.
+  deform::DeformableSurface surface(organ.mesh, deform::MaterialArrays::uniform(mesh.vertex_count(), o.material));
+  std::vector<haptics::ProbeMemory> memory(specs.size());
+  std::vector<haptics::ProbeOutput> outputs(specs.size());
+  std::vector<deform::Contact> contacts;
+  const long steps = std::max(1L, std::lround(o.settle_time / o.dt));
+  for (long s = 0; s < steps; ++s) {
+    haptics::haptic_tick(surface, tree, inputs, memory, outputs, o.force, o.shape);
+    contacts.clear();
+    for (const auto& out : outputs)
+      if (out.in_contact) contacts.push_back(out.contact);
+    surface.set_contacts(contacts);
+    surface.step(o.dt);
+  }
+
+  // Offscreen scene: the surface, the probes, a camera looking at the first probe.
+  OffscreenScene scene(o.width, o.height, o.backend);
+  result.backend = scene.window().backend();
+  result.gl_renderer = scene.window().gl_renderer();
+  log << "rendering with " << gl_backend_name(result.backend) << " (" << result.gl_renderer << ")\n";
+  SurfaceView view(organ.mesh, o.path);
+  view.sync(surface);
+  scene.add(view.actor());
+  std::vector<std::unique_ptr<ProbeView>> probe_views;
+  const double size = (organ.facts.bbox_max - organ.facts.bbox_min).norm();
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    auto pv = std::make_unique<ProbeView>(0.008 * size, 0.15 * size);
+    pv->set_force_scale(0.25 * size / std::max(o.force.max_force, 1e-9));
+    pv->set_state(inputs[k].position, axes[k], outputs[k].force, outputs[k].in_contact, k == 0);
+    pv->add_to(scene.renderer());
+    probe_views.push_back(std::move(pv));
+  }
+  Vec3 view_dir;
+  if (o.view_dir) {
+    view_dir = o.view_dir->normalized();
+  } else {
+    // Along the first probe's normal, tilted 35 degrees so the dent shows in profile.
+    const Vec3 n = axes[0];
+    Vec3 t = Vec3::UnitZ() - Vec3::UnitZ().dot(n) * n;
+    if (t.norm() < 1e-6) t = Vec3::UnitY() - Vec3::UnitY().dot(n) * n;
+    view_dir = (std::cos(0.61) * n - std::sin(0.61) * t.normalized()).normalized();
+  }
+  scene.look_at(view.bounds(), view_dir, Vec3::UnitZ());
+  const auto t0 = std::chrono::steady_clock::now();
+  Image img = scene.render_image();
+  result.render_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  write_png(img, o.output);
+
+  // Report.
+  result.max_displacement = view.max_displacement();
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    RenderJobResult::Probe p;
+    p.tip = inputs[k].position;
+    p.force = outputs[k].force;
+    p.depth = outputs[k].height.depth;
+    p.in_contact = outputs[k].in_contact;
+    result.probes.push_back(p);
+    log << "probe " << k + 1 << ": depth " << p.depth * 1e3 << " mm, force " << p.force.norm() << " N"
+        << (p.in_contact ? "" : " (no contact)") << "\n";
+  }
+  log << "max displacement " << result.max_displacement * 1e3 << " mm; wrote " << o.output.string() << " ("
+      << o.width << "x" << o.height << ", frame " << result.render_ms << " ms)\n";
+  return result;
+}
+
+}  // namespace palpa::render

@@ -1,0 +1,45 @@
+#pragma once
+// A renderer in an offscreen window with Palpa's look (background, light),
+// and camera placement shared by the headless job, the tests and the
+// benchmark.
+
+#include "core/types.h"
+#include "render/offscreen.h"
+
+#include <array>
+#include <memory>
+
+class vtkActor;
+class vtkRenderer;
+
+namespace palpa::render {
+
+/// Points `renderer`'s camera at the centre of `bounds` ({xmin, xmax, ...},
+/// m) from direction `view_dir` (from the centre towards the eye), with the
+/// whole box in view, then resets the clipping range.
+void frame_camera(vtkRenderer* renderer, const std::array<double, 6>& bounds, const Vec3& view_dir, const Vec3& up);
+
+/// Gives `renderer` Palpa's background colour and a single headlight.
+void style_renderer(vtkRenderer* renderer);
+
+/// One renderer filling an OffscreenWindow.
+class OffscreenScene {
+ public:
+  /// Throws RenderError when no context can be made.
+  OffscreenScene(int width, int height, GlBackend backend = GlBackend::Auto);
+  ~OffscreenScene();
+
+  OffscreenWindow& window();
+  vtkRenderer* renderer() const;
+  void add(vtkActor* actor);
+  /// frame_camera() on this scene's renderer.
+  void look_at(const std::array<double, 6>& bounds, const Vec3& view_dir, const Vec3& up);
+  /// Renders and reads back the frame.
+  Image render_image();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace palpa::render
