@@ -1,0 +1,69 @@
+// palpa: the Qt5 workbench on the bundled default organ. With no display it
+// says so and does its job headless: palpates the default organ and writes a
+// PNG. `palpa render [options]` is the headless job with palpa-render's options.
+
+#include "app/gui/main_window.h"
+#include "render/render_job.h"
+
+#include <QApplication>
+
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
+
+namespace {
+
+// The headless job; returns the exit status.
+int run_headless(const std::vector<std::string>& args, const char* default_output) {
+  try {
+    bool help = false;
+    auto options = palpa::render::parse_render_args(args, &help);
+    if (help) {
+      std::cout << palpa::render::render_usage("palpa render");
+      return 0;
+    }
+    bool has_output = false;
+    for (const auto& a : args) has_output |= a == "--output";
+    if (!has_output) options.output = default_output;
+    palpa::render::run_render_job(options, std::cout);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "palpa: %s\n", e.what());
+    return 1;
+  }
+}
+
+bool have_display() {
+  const char* x = std::getenv("DISPLAY");
+  const char* w = std::getenv("WAYLAND_DISPLAY");
+  return (x && *x) || (w && *w);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (!args.empty() && args[0] == "render") return run_headless({args.begin() + 1, args.end()}, "palpa-render.png");
+  if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+    std::cout << "usage: palpa              the workbench window on the default organ\n"
+                 "       palpa render ...   render to PNG with no display (palpa render --help)\n"
+                 "With no display, palpa palpates the default organ headless and writes palpa-headless.png\n"
+                 "(options as for palpa render).\n";
+    return 0;
+  }
+  if (!have_display()) {
+    std::cout << "palpa: no display (DISPLAY is not set), so no window; running headless instead: "
+                 "palpating the default organ and writing a PNG\n"
+              << std::flush;
+    return run_headless(args, "palpa-headless.png");
+  }
+
+  palpa::app::configure_application_defaults();
+  QApplication app(argc, argv);
+  palpa::app::MainWindow window;
+  window.resize(1280, 800);
+  window.show();
+  return app.exec();
+}

@@ -1,0 +1,678 @@
+// The workbench window.
+
+#include "app/gui/main_window.h"
+
+#include "app/gui/force_plot.h"
+#include "mesh/io.h"
+#include "render/probe_view.h"
+#include "render/scene.h"
+#include "render/surface_view.h"
+
+#include <QAction>
+#include <QApplication>
+#include <QCloseEvent>
+#include <QComboBox>
+#include <QDockWidget>
+#include <QDoubleSpinBox>
+#include <QDragEnterEvent>
+#include <QDropEvent>
+#include <QFileDialog>
+#include <QFileInfo>
+#include <QFormLayout>
+#include <QHBoxLayout>
+#include <QImage>
+#include <QLabel>
+#include <QListWidget>
+#include <QMenuBar>
+#include <QMimeData>
+#include <QMouseEvent>
+#include <QPushButton>
+#include <QSettings>
+#include <QStatusBar>
+#include <QSurfaceFormat>
+#include <QVBoxLayout>
+#include <QWheelEvent>
+
+#include <QVTKOpenGLNativeWidget.h>
+#include <vtkAutoInit.h>
+VTK_MODULE_INIT(vtkInteractionStyle);
+#include <vtkCamera.h>
+#include <vtkOpenGLRenderWindow.h>
+#include <vtkGenericOpenGLRenderWindow.h>
+#include <vtkInteractorStyleTrackballCamera.h>
+#include <vtkNew.h>
+#include <vtkRenderWindowInteractor.h>
+#include <vtkRenderer.h>
+#include <vtkSmartPointer.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace palpa::app {
+namespace {
+
+constexpr double kHapticDt = 1e-3;        // s, one haptic tick
+constexpr double kDepthPerPixel = 5e-5;   // m of indentation per pixel of downward drag
+constexpr double kDepthPerWheelStep = 5e-4;  // m per wheel notch while pressing
+constexpr int kMaxRecent = 8;
+
+QString mm(double metres, int decimals = 1) { return QString::number(metres * 1e3, 'f', decimals); }
+
+}  // namespace
+
+void configure_application_defaults() {
+  // Multisampling off (4x faster on llvmpipe); VTK's format set before the
+  // QApplication exists, as QVTKOpenGLNativeWidget requires.
+  vtkOpenGLRenderWindow::SetGlobalMaximumNumberOfMultiSamples(0);
+  QSurfaceFormat format = QVTKOpenGLNativeWidget::defaultFormat();
+  format.setSamples(0);
+  QSurfaceFormat::setDefaultFormat(format);
+  QCoreApplication::setOrganizationName("Palpa");
+  QCoreApplication::setApplicationName("palpa");
+}
+
+// VTK objects of the viewport.
+struct MainWindow::Vtk {
+  vtkNew<vtkGenericOpenGLRenderWindow> window;
+  vtkNew<vtkRenderer> renderer;
+  vtkNew<vtkInteractorStyleTrackballCamera> style;
+};
+
+MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_unique<Vtk>()) {
+  setWindowTitle("Palpa");
+  setAcceptDrops(true);
+  build_ui();
+  build_menus();
+  load_settings();
+  open_default_organ();
+
+  // Frame timer: the simulation catches up with the wall clock each frame.
+  clock_.start();
+  connect(&frame_timer_, &QTimer::timeout, this, &MainWindow::advance);
+  frame_timer_.start(16);
+}
+
+MainWindow::~MainWindow() {
+  frame_timer_.stop();
+  // Probe and surface views go before the render window releases GL state.
+  if (vtk_) vtk_->renderer->RemoveAllViewProps();
+  probe_views_.clear();
+  hover_view_.reset();
+  view_.reset();
+}
+
+vtkRenderer* MainWindow::renderer() const { return vtk_->renderer; }
+
+// ---------------------------------------------------------------------------
+// Layout: banner over the viewport, docks for organ, probes, readouts, material.
+void MainWindow::build_ui() {
+  auto* central = new QWidget(this);
+  auto* layout = new QVBoxLayout(central);
+  layout->setContentsMargins(0, 0, 0, 0);
+  layout->setSpacing(0);
+  error_banner_ = new QLabel(central);
+  error_banner_->setObjectName("errorBanner");
+  error_banner_->setWordWrap(true);
+  error_banner_->setStyleSheet("QLabel { background: #8b1e1e; color: white; padding: 6px; }");
+  error_banner_->setToolTip("Click to dismiss");
+  error_banner_->hide();
+  error_banner_->installEventFilter(this);
+  layout->addWidget(error_banner_);
+
+  viewport_ = new QVTKOpenGLNativeWidget(central);
+  viewport_->setObjectName("viewport");
+  viewport_->setMinimumSize(480, 360);
+  vtk_->window->SetMultiSamples(0);
+  viewport_->setRenderWindow(vtk_->window.Get());
+  render::style_renderer(vtk_->renderer);
+  vtk_->window->AddRenderer(vtk_->renderer);
+  viewport_->interactor()->SetInteractorStyle(vtk_->style);
+  viewport_->setMouseTracking(true);
+  viewport_->installEventFilter(this);
+  layout->addWidget(viewport_, 1);
+  setCentralWidget(central);
+
+  // Organ dock: facts and the unit used when opening files.
+  auto* organ = new QWidget;
+  auto* organ_layout = new QFormLayout(organ);
+  facts_ = new QLabel;
+  facts_->setObjectName("meshFacts");
+  facts_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  organ_layout->addRow(facts_);
+  unit_box_ = new QComboBox;
+  unit_box_->setObjectName("unitBox");
+  unit_box_->addItems({"auto", "m", "cm", "mm"});
+  organ_layout->addRow("File unit", unit_box_);
+  auto* organ_dock = new QDockWidget("Organ", this);
+  organ_dock->setObjectName("organDock");
+  organ_dock->setWidget(organ);
+  addDockWidget(Qt::RightDockWidgetArea, organ_dock);
+
+  // Probes dock: list, add, remove.
+  auto* probes = new QWidget;
+  auto* probes_layout = new QVBoxLayout(probes);
+  probe_list_ = new QListWidget;
+  probe_list_->setObjectName("probeList");
+  probes_layout->addWidget(probe_list_);
+  auto* buttons = new QHBoxLayout;
+  auto* add = new QPushButton("Add");
+  auto* remove = new QPushButton("Remove");
+  add->setObjectName("addProbe");
+  remove->setObjectName("removeProbe");
+  buttons->addWidget(add);
+  buttons->addWidget(remove);
+  probes_layout->addLayout(buttons);
+  probes_layout->addWidget(new QLabel("Left-drag on the organ: press (drag down = deeper,\n"
+                                      "wheel while pressing = depth, Shift = slide).\n"
+                                      "Left-drag elsewhere: rotate. Wheel: zoom."));
+  connect(add, &QPushButton::clicked, this, &MainWindow::add_probe);
+  connect(remove, &QPushButton::clicked, this, &MainWindow::remove_selected_probe);
+  connect(probe_list_, &QListWidget::currentRowChanged, this, [this](int row) {
+    if (row >= 0 && row < static_cast<int>(workbench_.probes().size()))
+      workbench_.select_probe(workbench_.probes()[static_cast<std::size_t>(row)].id);
+  });
+  auto* probes_dock = new QDockWidget("Probes", this);
+  probes_dock->setObjectName("probesDock");
+  probes_dock->setWidget(probes);
+  addDockWidget(Qt::RightDockWidgetArea, probes_dock);
+
+  // Readouts dock: numbers and the force plot.
+  auto* readouts = new QWidget;
+  auto* readouts_layout = new QFormLayout(readouts);
+  force_label_ = new QLabel("0.00 N");
+  depth_label_ = new QLabel("0.0 mm");
+  haptic_label_ = new QLabel("0 Hz");
+  frame_label_ = new QLabel("0 fps");
+  force_label_->setObjectName("forceReadout");
+  depth_label_->setObjectName("depthReadout");
+  haptic_label_->setObjectName("hapticRateReadout");
+  frame_label_->setObjectName("frameRateReadout");
+  readouts_layout->addRow("Force", force_label_);
+  readouts_layout->addRow("Indentation", depth_label_);
+  readouts_layout->addRow("Haptic rate", haptic_label_);
+  readouts_layout->addRow("Frame rate", frame_label_);
+  plot_ = new ForcePlot;
+  readouts_layout->addRow(plot_);
+  auto* readouts_dock = new QDockWidget("Readouts", this);
+  readouts_dock->setObjectName("readoutsDock");
+  readouts_dock->setWidget(readouts);
+  addDockWidget(Qt::RightDockWidgetArea, readouts_dock);
+
+  auto* material_dock = new QDockWidget("Material", this);
+  material_dock->setObjectName("materialDock");
+  material_dock->setWidget(build_material_panel());
+  addDockWidget(Qt::LeftDockWidgetArea, material_dock);
+
+  hover_view_ = std::make_unique<render::ProbeView>();
+  hover_view_->add_to(vtk_->renderer);
+  hover_view_->set_visible(false);
+  statusBar()->showMessage("Ready");
+}
+
+// The material panel: the core's parameters, applied to the whole organ at once.
+QWidget* MainWindow::build_material_panel() {
+  auto* w = new QWidget;
+  auto* form = new QFormLayout(w);
+  auto spin = [&](const char* name, double lo, double hi, double step, int decimals, const char* suffix) {
+    auto* s = new QDoubleSpinBox;
+    s->setObjectName(name);
+    s->setRange(lo, hi);
+    s->setSingleStep(step);
+    s->setDecimals(decimals);
+    s->setSuffix(suffix);
+    s->setKeyboardTracking(false);
+    connect(s, qOverload<double>(&QDoubleSpinBox::valueChanged), this, &MainWindow::apply_material);
+    return s;
+  };
+  model_box_ = new QComboBox;
+  model_box_->setObjectName("modelBox");
+  model_box_->addItems({"Linear (eq. 1)", "Exponential (stiffening)", "Viscoelastic (relaxing)"});
+  connect(model_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_material);
+  shape_box_ = new QComboBox;
+  shape_box_->setObjectName("shapeBox");
+  shape_box_->addItems({"Gaussian", "Wendland C2", "Volume conserving"});
+  shape_box_->setCurrentIndex(1);
+  connect(shape_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_material);
+  stiffness_ = spin("stiffness", 1, 1e5, 10, 1, " N/m");
+  damping_ = spin("damping", 0.01, 1e3, 0.5, 2, " N·s/m");
+  mass_g_ = spin("mass", 0.01, 1e3, 0.1, 2, " g");
+  radius_mm_ = spin("radius", 1, 200, 1, 1, " mm");
+  friction_ = spin("friction", 0, 2, 0.05, 2, "");
+  max_force_ = spin("maxForce", 0.1, 100, 0.5, 1, " N");
+  const MaterialSettings d;
+  stiffness_->setValue(d.stiffness);
+  damping_->setValue(d.damping);
+  mass_g_->setValue(d.mass * 1e3);
+  radius_mm_->setValue(d.radius * 1e3);
+  friction_->setValue(d.friction);
+  max_force_->setValue(d.max_force);
+  form->addRow("Local model", model_box_);
+  form->addRow("Stiffness", stiffness_);
+  form->addRow("Damping", damping_);
+  form->addRow("Mass per vertex", mass_g_);
+  form->addRow("Shape function", shape_box_);
+  form->addRow("Radius", radius_mm_);
+  form->addRow("Friction K", friction_);
+  form->addRow("Max force", max_force_);
+  return w;
+}
+
+void MainWindow::build_menus() {
+  QMenu* file = menuBar()->addMenu("&File");
+  QAction* open = file->addAction("&Open organ...", this, [this] {
+    const QString path = QFileDialog::getOpenFileName(
+        this, "Open organ mesh", QString(),
+        "Meshes (*.obj *.stl *.ply *.off *.vtk *.vtp);;All files (*)");
+    if (!path.isEmpty()) open_mesh(path);
+  });
+  open->setShortcut(QKeySequence::Open);
+  file->addAction("Open &default organ", this, &MainWindow::open_default_organ);
+  recent_menu_ = file->addMenu("Open &recent");
+  file->addSeparator();
+  QAction* shot = file->addAction("&Screenshot...", this, [this] {
+    const QString path = QFileDialog::getSaveFileName(this, "Save screenshot", "palpa.png", "PNG (*.png)");
+    if (!path.isEmpty()) save_screenshot(path);
+  });
+  shot->setShortcut(QKeySequence("Ctrl+S"));
+  file->addSeparator();
+  QAction* quit = file->addAction("&Quit", this, &QWidget::close);
+  quit->setShortcut(QKeySequence::Quit);
+
+  QMenu* probe = menuBar()->addMenu("&Probe");
+  probe->addAction("&Add probe", this, &MainWindow::add_probe)->setShortcut(QKeySequence("Ctrl+P"));
+  probe->addAction("&Remove probe", this, &MainWindow::remove_selected_probe)->setShortcut(QKeySequence::Delete);
+  hold_action_ = probe->addAction("&Hold indentation after release");
+  hold_action_->setCheckable(true);
+  hold_action_->setChecked(true);
+
+  QMenu* sim = menuBar()->addMenu("&Simulation");
+  sim->addAction("&Reset", this, &MainWindow::reset)->setShortcut(QKeySequence("Ctrl+R"));
+}
+
+// ---------------------------------------------------------------------------
+// Settings kept between runs (QSettings): material, unit, recent files, hold, layout.
+void MainWindow::load_settings() {
+  QSettings s;
+  loading_settings_ = true;
+  const MaterialSettings d;
+  model_box_->setCurrentIndex(std::clamp(s.value("material/model", 0).toInt(), 0, 2));
+  shape_box_->setCurrentIndex(std::clamp(s.value("material/shape", 1).toInt(), 0, 2));
+  stiffness_->setValue(s.value("material/stiffness", d.stiffness).toDouble());
+  damping_->setValue(s.value("material/damping", d.damping).toDouble());
+  mass_g_->setValue(s.value("material/mass_g", d.mass * 1e3).toDouble());
+  radius_mm_->setValue(s.value("material/radius_mm", d.radius * 1e3).toDouble());
+  friction_->setValue(s.value("material/friction", d.friction).toDouble());
+  max_force_->setValue(s.value("material/max_force", d.max_force).toDouble());
+  unit_box_->setCurrentIndex(std::clamp(s.value("organ/unit", 0).toInt(), 0, 3));
+  hold_action_->setChecked(s.value("probe/hold", true).toBool());
+  recent_ = s.value("recentFiles").toStringList();
+  restoreGeometry(s.value("window/geometry").toByteArray());
+  restoreState(s.value("window/state").toByteArray());
+  loading_settings_ = false;
+  rebuild_recent_menu();
+  apply_material();
+}
+
+void MainWindow::save_settings() const {
+  QSettings s;
+  s.setValue("material/model", model_box_->currentIndex());
+  s.setValue("material/shape", shape_box_->currentIndex());
+  s.setValue("material/stiffness", stiffness_->value());
+  s.setValue("material/damping", damping_->value());
+  s.setValue("material/mass_g", mass_g_->value());
+  s.setValue("material/radius_mm", radius_mm_->value());
+  s.setValue("material/friction", friction_->value());
+  s.setValue("material/max_force", max_force_->value());
+  s.setValue("organ/unit", unit_box_->currentIndex());
+  s.setValue("probe/hold", hold_action_->isChecked());
+  s.setValue("recentFiles", recent_);
+  s.setValue("window/geometry", saveGeometry());
+  s.setValue("window/state", saveState());
+}
+
+void MainWindow::closeEvent(QCloseEvent* event) {
+  save_settings();
+  QMainWindow::closeEvent(event);
+}
+
+// ---------------------------------------------------------------------------
+// Errors: shown over the viewport until dismissed or the next good load.
+void MainWindow::show_error(const QString& text) {
+  error_banner_->setText(text);
+  error_banner_->show();
+  statusBar()->showMessage(text, 10000);
+}
+
+void MainWindow::clear_error() {
+  error_banner_->clear();
+  error_banner_->hide();
+}
+
+QString MainWindow::error_text() const { return error_banner_->isVisible() ? error_banner_->text() : QString(); }
+QString MainWindow::facts_text() const { return facts_->text(); }
+
+// ---------------------------------------------------------------------------
+// Organs.
+bool MainWindow::open_mesh(const QString& path) {
+  const QFileInfo info(path);
+  if (!info.exists()) {
+    recent_.removeAll(path);
+    rebuild_recent_menu();
+    show_error(QString("Could not open %1: the file does not exist (any more)").arg(path));
+    return false;
+  }
+  try {
+    const auto unit = static_cast<render::MeshUnit>(unit_box_->currentIndex());
+    render::Organ organ = render::load_organ(path.toStdString(), unit);
+    install_organ(std::move(organ));
+  } catch (const std::exception& e) {
+    show_error(QString("Could not open %1: %2").arg(info.fileName(), QString::fromStdString(e.what())));
+    return false;
+  }
+  add_recent(info.absoluteFilePath());
+  clear_error();
+  statusBar()->showMessage("Opened " + info.fileName(), 5000);
+  return true;
+}
+
+void MainWindow::open_default_organ() {
+  try {
+    install_organ(render::load_default_organ());
+    clear_error();
+    if (!workbench_.organ().note.empty()) statusBar()->showMessage(QString::fromStdString(workbench_.organ().note));
+  } catch (const std::exception& e) {
+    show_error(QString("Could not open the default organ: %1").arg(e.what()));
+  }
+}
+
+// Builds the new surface and view first; only then replaces the old ones.
+void MainWindow::install_organ(render::Organ organ) {
+  auto view = std::make_unique<render::SurfaceView>(organ.mesh);
+  workbench_.set_organ(std::move(organ));  // all or nothing
+  if (view_) vtk_->renderer->RemoveActor(view_->actor());
+  view_ = std::move(view);
+  view_->sync(workbench_.surface());
+  vtk_->renderer->AddActor(view_->actor());
+  if (workbench_.probes().empty()) workbench_.add_probe();
+
+  // Probe glyph size from the organ's size.
+  const auto& f = workbench_.organ().facts;
+  const double diag = (f.bbox_max - f.bbox_min).norm();
+  if (hover_view_) hover_view_->remove_from(vtk_->renderer);
+  hover_view_ = std::make_unique<render::ProbeView>(0.006 * diag, 0.12 * diag);
+  hover_view_->add_to(vtk_->renderer);
+  hover_view_->set_visible(false);
+  for (auto& [id, pv] : probe_views_) pv->remove_from(vtk_->renderer);
+  probe_views_.clear();
+  refresh_probe_list();
+  plot_->clear();
+
+  // Facts: size, counts, closed or not.
+  const Vec3 ext = f.bbox_max - f.bbox_min;
+  QString text = QString("<b>%1</b><br>%2 vertices, %3 triangles<br>size %4 x %5 x %6 mm<br>%7")
+                     .arg(QString::fromStdString(workbench_.organ().name))
+                     .arg(f.vertices)
+                     .arg(f.triangles)
+                     .arg(mm(ext.x()), mm(ext.y()), mm(ext.z()))
+                     .arg(f.closed() ? QString("closed")
+                                     : QString("open (%1 boundary edges)").arg(f.boundary_edges));
+  if (workbench_.organ().unit_guessed)
+    text += QString("<br>file unit guessed: %1 m").arg(workbench_.organ().unit_m);
+  facts_->setText(text);
+
+  // Camera on the whole organ.
+  render::frame_camera(vtk_->renderer, view_->bounds(), Vec3(0.3, -1.0, 0.8), Vec3::UnitZ());
+  vtk_->window->Render();
+}
+
+void MainWindow::add_recent(const QString& path) {
+  recent_.removeAll(path);
+  recent_.prepend(path);
+  while (recent_.size() > kMaxRecent) recent_.removeLast();
+  rebuild_recent_menu();
+  QSettings().setValue("recentFiles", recent_);
+}
+
+void MainWindow::rebuild_recent_menu() {
+  recent_menu_->clear();
+  for (const QString& path : recent_)
+    recent_menu_->addAction(QFileInfo(path).fileName(), this, [this, path] { open_mesh(path); })->setToolTip(path);
+  recent_menu_->setEnabled(!recent_.isEmpty());
+}
+
+void MainWindow::dragEnterEvent(QDragEnterEvent* event) {
+  if (event->mimeData()->hasUrls() && !event->mimeData()->urls().isEmpty() &&
+      event->mimeData()->urls().first().isLocalFile())
+    event->acceptProposedAction();
+}
+
+void MainWindow::dropEvent(QDropEvent* event) {
+  const auto urls = event->mimeData()->urls();
+  if (urls.isEmpty() || !urls.first().isLocalFile()) return;
+  event->acceptProposedAction();
+  open_mesh(urls.first().toLocalFile());
+}
+
+bool MainWindow::save_screenshot(const QString& path) {
+  const QImage image = viewport_->grabFramebuffer();
+  if (image.isNull() || !image.save(path, "PNG")) {
+    show_error(QString("Could not save the screenshot to %1").arg(path));
+    return false;
+  }
+  statusBar()->showMessage("Saved " + path, 5000);
+  return true;
+}
+
+// ---------------------------------------------------------------------------
+// Material panel -> workbench, immediately.
+void MainWindow::apply_material() {
+  if (loading_settings_) return;
+  MaterialSettings m;
+  m.model = static_cast<deform::LocalModelKind>(model_box_->currentIndex());
+  m.shape = static_cast<deform::ShapeKind>(shape_box_->currentIndex());
+  m.stiffness = stiffness_->value();
+  m.damping = damping_->value();
+  m.mass = mass_g_->value() * 1e-3;
+  m.radius = radius_mm_->value() * 1e-3;
+  m.friction = friction_->value();
+  m.max_force = max_force_->value();
+  workbench_.set_material(m);
+  save_settings();
+}
+
+// ---------------------------------------------------------------------------
+// Probes.
+void MainWindow::add_probe() {
+  workbench_.add_probe();
+  refresh_probe_list();
+}
+
+void MainWindow::remove_selected_probe() {
+  const int id = workbench_.selected_id();
+  if (auto it = probe_views_.find(id); it != probe_views_.end()) {
+    it->second->remove_from(vtk_->renderer);
+    probe_views_.erase(it);
+  }
+  workbench_.remove_probe(id);
+  refresh_probe_list();
+}
+
+void MainWindow::refresh_probe_list() {
+  const QSignalBlocker block(probe_list_);
+  probe_list_->clear();
+  int row = 0;
+  for (const Probe& p : workbench_.probes()) {
+    probe_list_->addItem(QString("Probe %1").arg(p.id));
+    if (p.id == workbench_.selected_id()) probe_list_->setCurrentRow(row);
+    ++row;
+  }
+}
+
+void MainWindow::reset() {
+  workbench_.reset();
+  plot_->clear();
+  if (view_) view_->sync(workbench_.surface());
+  statusBar()->showMessage("Reset", 3000);
+}
+
+// ---------------------------------------------------------------------------
+// Mouse gestures on the viewport.
+bool MainWindow::pick_at(const QPoint& pos, Vec3& rest_point, Vec3& rest_normal, Vec3& drawn_point) const {
+  if (!view_) return false;
+  // Qt: logical pixels from the top; VTK: device pixels from the bottom.
+  const double dpr = viewport_->devicePixelRatioF();
+  const double x = (pos.x() + 0.5) * dpr;
+  const double y = (viewport_->height() - pos.y() - 0.5) * dpr;
+  const auto hit = view_->pick(vtk_->renderer, x, y);
+  if (!hit) return false;
+  rest_point = hit->rest_point;
+  rest_normal = hit->rest_normal;
+  drawn_point = hit->point;
+  return true;
+}
+
+bool MainWindow::mouse_press(QMouseEvent* e) {
+  if (e->button() != Qt::LeftButton || !workbench_.has_organ()) return false;
+  Vec3 rest, normal, drawn;
+  if (!pick_at(e->pos(), rest, normal, drawn)) return false;  // off the organ: VTK rotates
+  // Pressing near a placed probe takes that probe; else the selected one.
+  int id = workbench_.selected_id();
+  const double near = 0.1 * workbench_.material().radius;
+  for (const Probe& p : workbench_.probes())
+    if (p.placed && (p.anchor - rest).norm() < near) id = p.id;
+  if (!workbench_.probe(id)) id = workbench_.add_probe();
+  workbench_.select_probe(id);
+  refresh_probe_list();
+  workbench_.place(id, rest, normal, 0.0);
+  indenting_ = true;
+  press_pos_ = e->pos();
+  press_depth_ = 0;
+  hover_view_->set_visible(false);
+  return true;
+}
+
+bool MainWindow::mouse_move(QMouseEvent* e) {
+  if (indenting_) {
+    Probe* p = workbench_.selected_probe();
+    if (!p) return true;
+    if (e->modifiers() & Qt::ShiftModifier) {
+      // Slide: follow the surface under the cursor at the same depth.
+      Vec3 rest, normal, drawn;
+      if (pick_at(e->pos(), rest, normal, drawn)) workbench_.place(p->id, rest, normal, p->depth);
+      press_pos_ = e->pos();
+      press_depth_ = p->depth;
+    } else {
+      // Depth by dragging down.
+      const double drag = (e->pos().y() - press_pos_.y()) * kDepthPerPixel;
+      workbench_.set_depth(p->id, press_depth_ + drag);
+    }
+    return true;
+  }
+  if (e->buttons() != Qt::NoButton) return false;  // VTK is rotating or zooming
+  // Hover: show where the probe would touch.
+  Vec3 rest, normal, drawn;
+  if (pick_at(e->pos(), rest, normal, drawn)) {
+    hover_view_->set_state(drawn, normal, Vec3::Zero(), false, true);
+    hover_view_->set_visible(true);
+  } else {
+    hover_view_->set_visible(false);
+  }
+  return false;
+}
+
+bool MainWindow::mouse_release(QMouseEvent* e) {
+  if (!indenting_ || e->button() != Qt::LeftButton) return false;
+  indenting_ = false;
+  if (!hold_action_->isChecked())
+    if (Probe* p = workbench_.selected_probe()) workbench_.set_depth(p->id, 0.0);
+  return true;
+}
+
+bool MainWindow::wheel(QWheelEvent* e) {
+  if (!indenting_) return false;  // VTK zooms
+  Probe* p = workbench_.selected_probe();
+  if (!p) return true;
+  const double steps = e->angleDelta().y() / 120.0;
+  press_depth_ += steps * kDepthPerWheelStep;
+  workbench_.set_depth(p->id, p->depth + steps * kDepthPerWheelStep);
+  return true;
+}
+
+bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
+  if (watched == error_banner_ && event->type() == QEvent::MouseButtonRelease) {
+    clear_error();
+    return true;
+  }
+  if (watched != viewport_) return QMainWindow::eventFilter(watched, event);
+  switch (event->type()) {
+    case QEvent::MouseButtonPress: return mouse_press(static_cast<QMouseEvent*>(event));
+    case QEvent::MouseMove: return mouse_move(static_cast<QMouseEvent*>(event));
+    case QEvent::MouseButtonRelease: return mouse_release(static_cast<QMouseEvent*>(event));
+    case QEvent::Wheel: return wheel(static_cast<QWheelEvent*>(event));
+    case QEvent::Leave: hover_view_->set_visible(false); return false;
+    default: return QMainWindow::eventFilter(watched, event);
+  }
+}
+
+// ---------------------------------------------------------------------------
+// The frame: catch up the simulation, move the GPU stream, draw.
+void MainWindow::advance() {
+  if (!workbench_.has_organ() || !view_) return;
+  const double now = clock_.nsecsElapsed() * 1e-9;
+  debt_ += std::min(now - last_time_, 0.1);  // after a stall, do not try to catch up more than 0.1 s
+  last_time_ = now;
+  int ticks = 0;
+  while (debt_ >= kHapticDt && ticks < 200) {
+    workbench_.tick(kHapticDt);
+    debt_ -= kHapticDt;
+    ++ticks;
+  }
+  ticks_in_window_ += static_cast<std::uint64_t>(ticks);
+
+  view_->sync(workbench_.surface());
+  sync_probe_views();
+  update_readouts();
+  vtk_->window->Render();
+  ++frames_in_window_;
+
+  // Rates over the last second.
+  if (now - rate_window_start_ >= 1.0) {
+    haptic_rate_ = ticks_in_window_ / (now - rate_window_start_);
+    frame_rate_ = frames_in_window_ / (now - rate_window_start_);
+    ticks_in_window_ = frames_in_window_ = 0;
+    rate_window_start_ = now;
+  }
+}
+
+void MainWindow::sync_probe_views() {
+  const auto& f = workbench_.organ().facts;
+  const double diag = (f.bbox_max - f.bbox_min).norm();
+  for (const Probe& p : workbench_.probes()) {
+    auto& pv = probe_views_[p.id];
+    if (!pv) {
+      pv = std::make_unique<render::ProbeView>(0.006 * diag, 0.12 * diag);
+      pv->add_to(vtk_->renderer);
+    }
+    // The arrow reaches 0.2 organ diagonals at the maximum force.
+    pv->set_force_scale(0.2 * diag / std::max(workbench_.material().max_force, 1e-9));
+    pv->set_visible(p.placed);
+    if (p.placed)
+      pv->set_state(p.tip, p.normal, p.output.force, p.output.in_contact && p.depth > 0,
+                    p.id == workbench_.selected_id());
+  }
+}
+
+void MainWindow::update_readouts() {
+  const double t = workbench_.time();
+  for (const Probe& p : workbench_.probes())
+    if (p.placed) plot_->add_sample(p.id, t, p.output.force.norm());
+  plot_->update();
+  if (const Probe* p = workbench_.selected_probe()) {
+    force_label_->setText(QString::number(p->output.force.norm(), 'f', 2) + " N");
+    depth_label_->setText(mm(p->placed ? p->depth : 0.0) + " mm");
+  }
+  haptic_label_->setText(QString::number(haptic_rate_, 'f', 0) + " Hz");
+  frame_label_->setText(QString::number(frame_rate_, 'f', 1) + " fps");
+}
+
+}  // namespace palpa::app

@@ -1,0 +1,149 @@
+#pragma once
+// The Qt5 workbench window: a VTK viewport on the organ, virtual probes
+// driven by the mouse, live readouts and a force plot, the material panel,
+// organ files by menu, drag and drop and recent files, settings kept
+// between runs. Errors appear in the window; the scene stays as it was.
+
+#include "app/gui/workbench.h"
+
+#include <QElapsedTimer>
+#include <QMainWindow>
+#include <QString>
+#include <QStringList>
+#include <QTimer>
+
+#include <map>
+#include <memory>
+
+class QAction;
+class QComboBox;
+class QDoubleSpinBox;
+class QLabel;
+class QListWidget;
+class QMenu;
+class QVTKOpenGLNativeWidget;
+class vtkRenderer;
+
+namespace palpa::render {
+class ProbeView;
+class SurfaceView;
+}  // namespace palpa::render
+
+namespace palpa::app {
+
+class ForcePlot;
+
+/// Call before creating the QApplication: VTK's surface format with
+/// multisampling off, and the organisation name QSettings files go under.
+void configure_application_defaults();
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+ public:
+  /// Opens on the bundled default organ.
+  explicit MainWindow(QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  /// Opens an organ mesh (unit from the Organ panel). On failure the error
+  /// is shown in the window, the scene is unchanged and false is returned.
+  bool open_mesh(const QString& path);
+  /// Opens the bundled default organ.
+  void open_default_organ();
+  /// Writes the viewport to a PNG; on failure shows the error.
+  bool save_screenshot(const QString& path);
+  /// Surface to rest, every probe lifted.
+  void reset();
+  /// Adds a probe (and selects it); removes the selected one.
+  void add_probe();
+  void remove_selected_probe();
+
+  Workbench& workbench() { return workbench_; }
+  QVTKOpenGLNativeWidget* viewport() const { return viewport_; }
+  vtkRenderer* renderer() const;
+  render::SurfaceView* surface_view() const { return view_.get(); }
+  /// The error shown in the window, empty when none.
+  QString error_text() const;
+  QString facts_text() const;
+  QStringList recent_files() const { return recent_; }
+  /// Measured rates, per second.
+  double haptic_rate() const { return haptic_rate_; }
+  double frame_rate() const { return frame_rate_; }
+  ForcePlot* force_plot() const { return plot_; }
+
+  /// Advances the simulation to the wall clock in 1 ms haptic ticks and
+  /// draws one frame (the frame timer calls this).
+  void advance();
+
+ protected:
+  bool eventFilter(QObject* watched, QEvent* event) override;
+  void dragEnterEvent(QDragEnterEvent* event) override;
+  void dropEvent(QDropEvent* event) override;
+  void closeEvent(QCloseEvent* event) override;
+
+ private:
+  void build_ui();
+  void build_menus();
+  QWidget* build_material_panel();
+  void load_settings();
+  void save_settings() const;
+  void show_error(const QString& text);
+  void clear_error();
+  void install_organ(render::Organ organ);
+  void add_recent(const QString& path);
+  void rebuild_recent_menu();
+  void apply_material();
+  void refresh_probe_list();
+  void sync_probe_views();
+  void update_readouts();
+  // Mouse: display coordinates of a widget position, and the three gestures.
+  bool pick_at(const QPoint& pos, Vec3& rest_point, Vec3& rest_normal, Vec3& drawn_point) const;
+  bool mouse_press(QMouseEvent* e);
+  bool mouse_move(QMouseEvent* e);
+  bool mouse_release(QMouseEvent* e);
+  bool wheel(QWheelEvent* e);
+
+  Workbench workbench_;
+  QVTKOpenGLNativeWidget* viewport_ = nullptr;
+  struct Vtk;
+  std::unique_ptr<Vtk> vtk_;
+  std::unique_ptr<render::SurfaceView> view_;
+  std::map<int, std::unique_ptr<render::ProbeView>> probe_views_;
+  std::unique_ptr<render::ProbeView> hover_view_;
+
+  QLabel* error_banner_ = nullptr;
+  QLabel* facts_ = nullptr;
+  QComboBox* unit_box_ = nullptr;
+  QListWidget* probe_list_ = nullptr;
+  QLabel* force_label_ = nullptr;
+  QLabel* depth_label_ = nullptr;
+  QLabel* haptic_label_ = nullptr;
+  QLabel* frame_label_ = nullptr;
+  ForcePlot* plot_ = nullptr;
+  QComboBox* model_box_ = nullptr;
+  QComboBox* shape_box_ = nullptr;
+  QDoubleSpinBox* stiffness_ = nullptr;
+  QDoubleSpinBox* damping_ = nullptr;
+  QDoubleSpinBox* mass_g_ = nullptr;
+  QDoubleSpinBox* radius_mm_ = nullptr;
+  QDoubleSpinBox* friction_ = nullptr;
+  QDoubleSpinBox* max_force_ = nullptr;
+  QMenu* recent_menu_ = nullptr;
+  QAction* hold_action_ = nullptr;
+  QStringList recent_;
+
+  // Gesture state: pressing with a probe, where the press started.
+  bool indenting_ = false;
+  QPoint press_pos_;
+  double press_depth_ = 0;   // m, from the wheel while pressed
+  bool loading_settings_ = true;  // no saving while the window is being built
+
+  // Clock and rates.
+  QTimer frame_timer_;
+  QElapsedTimer clock_;
+  double last_time_ = 0, debt_ = 0;
+  double rate_window_start_ = 0;
+  std::uint64_t ticks_in_window_ = 0, frames_in_window_ = 0;
+  double haptic_rate_ = 0, frame_rate_ = 0;
+};
+
+}  // namespace palpa::app

@@ -1,0 +1,70 @@
+// The headless job behind palpa-render: options and a full run.
+
+#include "render/render_job.h"
+
+#include "common/test_support.h"
+
+#include <sstream>
+
+namespace palpa::render {
+namespace {
+
+std::string parse_error(const std::vector<std::string>& args) {
+  try {
+    parse_render_args(args);
+  } catch (const RenderError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(RenderJob, OptionsParseAndBadOnesAreNamed) {
+  bool help = false;
+  const auto o = parse_render_args({"--probe", "0.01,0.02,0.03,0.004", "--size", "320x200", "--gl", "osmesa",
+                                    "--shape", "volume", "--radius", "0.03", "--output", "x.png"},
+                                   &help);
+  EXPECT_FALSE(help);
+  ASSERT_EQ(o.probes.size(), 1u);
+  EXPECT_EQ(o.probes[0].point, Vec3(0.01, 0.02, 0.03));
+  EXPECT_EQ(o.probes[0].depth, 0.004);
+  EXPECT_EQ(o.width, 320);
+  EXPECT_EQ(o.height, 200);
+  EXPECT_EQ(o.backend, GlBackend::OSMesa);
+  EXPECT_EQ(o.shape.kind, deform::ShapeKind::VolumeConserving);
+  EXPECT_EQ(o.shape.radius, 0.03);
+  EXPECT_EQ(parse_error({"--probe", "1,2"}), "--probe: expected X,Y,Z,DEPTH in metres, got '1,2'");
+  EXPECT_EQ(parse_error({"--size", "12"}), "--size: expected WxH with 16..8192 pixels each, got '12'");
+  EXPECT_EQ(parse_error({"--stiffness", "-3"}), "--stiffness: expected a positive number, got '-3'");
+  EXPECT_EQ(parse_error({"--gl", "dx"}), "unknown GL backend 'dx' (expected auto, osmesa or egl)");
+  EXPECT_EQ(parse_error({"--mesh"}), "--mesh: needs a value");
+  EXPECT_EQ(parse_error({"--frobnicate"}), "unknown option '--frobnicate' (see --help)");
+  parse_render_args({"--help"}, &help);
+  EXPECT_TRUE(help);
+}
+
+TEST(RenderJob, PressesTheDefaultOrganAndWritesAPicture) {
+  RenderJobOptions o;
+  o.output = palpa::test::temp_dir("render_job") / "organ.png";
+  o.width = 240;
+  o.height = 180;
+  o.settle_time = 0.4;
+  std::ostringstream log;
+  const RenderJobResult r = run_render_job(o, log);
+  ASSERT_EQ(r.probes.size(), 1u);
+  EXPECT_TRUE(r.probes[0].in_contact);
+  // A linear material pressed 6 mm: the force is of the order of k * depth
+  // (the field pushes many vertices, so more than one vertex's k d).
+  EXPECT_GT(r.probes[0].force.norm(), 200.0 * 0.006 * 0.5);
+  EXPECT_NEAR(r.max_displacement, 0.006, 0.001);
+  const Image img = read_png(o.output);
+  EXPECT_EQ(img.width, 240);
+  // The organ fills a good part of the picture.
+  long organ = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) organ += img.grey(x, y) > 60;
+  EXPECT_GT(organ, img.width * img.height / 8);
+  EXPECT_NE(log.str().find("wrote"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace palpa::render
