@@ -1,4 +1,6 @@
-// Contact point interpolation and the 1-D height check (section III.C).
+// Contact point interpolation and the 1-D height check (section III.C), and
+// the contact query of the haptic tick: the in-contact walk of section V.A
+// with the vertex tree as its fallback.
 
 #include "collision/contact.h"
 
@@ -14,9 +16,9 @@ namespace {
 
 // Barycentric weights within this of [0, 1] count as inside a triangle.
 constexpr double kInsideTolerance = 1e-9;
-// Newton iterations for the interpolated-normal equation; it is linear when
-// the normals are equal and converges quadratically otherwise.
-constexpr int kNewtonIterations = 8;
+// Newton steps on the cubic of the interpolated-normal equation, at most
+// (it converges quadratically: three or four steps from the plane crossing).
+constexpr int kNewtonIterations = 16;
 
 // One triangle's candidate: barycentric weights (b0, b1, b2) and the distance
 // from the probe to the candidate point.
@@ -26,54 +28,116 @@ struct Candidate {
   double distance_sq = std::numeric_limits<double>::infinity();
 };
 
+// Prepares triangle t of the mesh (see TriangleFrame).
+void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
+  const mesh::Triangle& tri = mesh.triangles[t];
+  f.mesh = &mesh;
+  f.triangle = t;
+  f.corners = tri;
+  for (int k = 0; k < 3; ++k) {
+    f.p[k] = mesh.positions[tri[k]];
+    f.n[k] = mesh.normals[tri[k]];
+  }
+  f.p0 = f.p[0];
+  f.n0 = f.n[0];
+  f.e1 = f.p[1] - f.p0;
+  f.e2 = f.p[2] - f.p0;
+  f.f1 = f.n[1] - f.n0;
+  f.f2 = f.n[2] - f.n0;
+  f.a11 = f.e1.dot(f.e1);
+  f.a12 = f.e1.dot(f.e2);
+  f.a22 = f.e2.dot(f.e2);
+  f.det = f.a11 * f.a22 - f.a12 * f.a12;
+  f.flat = f.f1.isZero(0) && f.f2.isZero(0);
+  f.k0 = f.e1.cross(f.e2);
+  f.k1 = f.f1.cross(f.e2) + f.e1.cross(f.f2);
+  f.k2 = f.f1.cross(f.f2);
+  f.nk0 = f.n0.dot(f.k0);
+  f.nk1 = f.n0.dot(f.k1);
+  f.nk2 = f.n0.dot(f.k2);
+  f.e3_sq = (f.e2 - f.e1).squaredNorm();
+  f.f1_sq = f.f1.squaredNorm();
+  f.f2_sq = f.f2.squaredNorm();
+  f.f3_sq = (f.f2 - f.f1).squaredNorm();
+}
+
 // Solves P = C(b) + t N(b) for b = (1-u-v, u, v) and t, where C and N are the
 // linearly interpolated positions and (unnormalised) normals of the triangle.
-// Starts from the orthogonal projection onto the triangle's plane and runs a
-// few Newton steps. Returns false when the system is degenerate.
-bool solve_interpolated_normal(const mesh::SurfaceMesh& mesh, const mesh::Triangle& tri, const Vec3& probe,
-                               Vec3& b) {
-  const Vec3& p0 = mesh.positions[tri[0]];
-  const Vec3& n0 = mesh.normals[tri[0]];
-  const Vec3 e1 = mesh.positions[tri[1]] - p0;
-  const Vec3 e2 = mesh.positions[tri[2]] - p0;
-  const Vec3 f1 = mesh.normals[tri[1]] - n0;
-  const Vec3 f2 = mesh.normals[tri[2]] - n0;
-  const Vec3 d = probe - p0;
-
-  // Orthogonal projection onto the plane: the 2x2 normal equations.
-  const double a11 = e1.dot(e1), a12 = e1.dot(e2), a22 = e2.dot(e2);
-  const double det = a11 * a22 - a12 * a12;
-  if (!(det > 0)) return false;
-  const double r1 = d.dot(e1), r2 = d.dot(e2);
-  double u = (a22 * r1 - a12 * r2) / det;
-  double v = (a11 * r2 - a12 * r1) / det;
-  Vec3 n = n0 + u * f1 + v * f2;
-  const double nn = n.squaredNorm();
-  if (!(nn > 0)) return false;
-  double t = (d - u * e1 - v * e2).dot(n) / nn;
-
-  // Newton on F(u, v, t) = p0 + u e1 + v e2 + t N(u, v) - P, stopping once
-  // the residual is at round-off level; each step solved by Cramer's rule.
-  const double tolerance_sq = 1e-28 * (a11 + a22);
-  bool converged = false;
-  for (int it = 0; it <= kNewtonIterations; ++it) {
-    n = n0 + u * f1 + v * f2;
-    const Vec3 residual = u * e1 + v * e2 + t * n - d;
-    // Round-off level, or (after the last step) close enough to use.
-    converged = residual.squaredNorm() <= (it < kNewtonIterations ? tolerance_sq : 1e-16 * (a11 + a22));
-    if (converged || it == kNewtonIterations) break;
-    const Vec3 ju = e1 + t * f1, jv = e2 + t * f2;
-    const Vec3 jv_x_n = jv.cross(n);
-    const double jdet = ju.dot(jv_x_n);
-    if (!(std::abs(jdet) > 0) || !std::isfinite(jdet)) return false;
-    u -= residual.dot(jv_x_n) / jdet;
-    v -= ju.dot(residual.cross(n)) / jdet;
-    t -= ju.dot(jv.cross(residual)) / jdet;
-    if (!std::isfinite(u) || !std::isfinite(v) || !std::isfinite(t)) return false;
+// With d = P - p0 it reads d - t n0 = u (e1 + t f1) + v (e2 + t f2): for
+// fixed t a linear system in (u, v) that is solvable exactly when
+// d - t n0 lies in the plane of A = e1 + t f1 and B = e2 + t f2, i.e. when
+//   F(t) = (d - t n0) . (A x B) = (d - t n0) . (k0 + t k1 + t^2 k2) = 0,
+// a cubic in t. Newton on F from the plane crossing takes a few scalar
+// steps; then u = ((d - t n0) x B) . W / W.W and v = (A x (d - t n0)) . W / W.W
+// with W = A x B. (A scalar Newton instead of a 3x3 one: about half the
+// arithmetic, and the cubic's coefficients are per-triangle constants the
+// walk keeps.) With equal normals (flat interpolation) it is the oblique
+// projection, solved directly. Returns false when the system is degenerate or the residual stays above
+// round-off. The answer depends only on the triangle and the probe (no
+// history), so every path that solves the same triangle gets the same bits.
+bool solve_interpolated_normal(const TriangleFrame& f, const Vec3& probe, Vec3& b) {
+  if (!(f.det > 0)) return false;
+  const Vec3 d = probe - f.p0;
+  const double scale = f.a11 + f.a22;  // m^2
+  double u = 0, v = 0;
+  if (f.flat) {
+    // Equal normals: the projection along n0 onto the plane, by the 2x2
+    // normal equations and the offset along n0.
+    const double r1 = d.dot(f.e1), r2 = d.dot(f.e2);
+    u = (f.a22 * r1 - f.a12 * r2) / f.det;
+    v = (f.a11 * r2 - f.a12 * r1) / f.det;
+    const double nn = f.n0.squaredNorm();
+    if (!(nn > 0)) return false;
+    const double t = (d - u * f.e1 - v * f.e2).dot(f.n0) / nn;
+    const Vec3 residual = u * f.e1 + v * f.e2 + t * f.n0 - d;
+    if (residual.squaredNorm() > 1e-28 * scale) {
+      // Oblique normals: solve d = u e1 + v e2 + t n0 by Cramer's rule.
+      const double den = f.nk0;
+      if (!(std::abs(den) > 0)) return false;
+      u = d.cross(f.e2).dot(f.n0) / den;
+      v = f.e1.cross(d).dot(f.n0) / den;
+    }
+  } else {
+    // Newton on the cubic F(t) = c0 + c1 t + c2 t^2 + c3 t^3.
+    const double c0 = d.dot(f.k0), c1 = d.dot(f.k1) - f.nk0, c2 = d.dot(f.k2) - f.nk1, c3 = -f.nk2;
+    // Starts where the line P - t n0 meets the triangle's plane (the root
+    // nearest the surface). Stops once the error left after a step, about
+    // |F'' / 2F'| dt^2 for Newton near a simple root, is at round-off level;
+    // near a double root (the probe near a focal point of the triangle) it
+    // converges slowly, and the residual test below decides.
+    double t = std::abs(f.nk0) > 0 ? c0 / f.nk0 : 0.0;
+    const double tol = 1e-14 * std::sqrt(scale);  // m (t is in m for unit normals)
+    for (int it = 0; it < kNewtonIterations; ++it) {
+      const double F = ((c3 * t + c2) * t + c1) * t + c0;
+      const double dF = (3 * c3 * t + 2 * c2) * t + c1;
+      if (!(std::abs(dF) > 0) || !std::isfinite(dF)) return false;
+      const double dt = F / dF;
+      t -= dt;
+      if (!std::isfinite(t)) return false;
+      const double ddF = 6 * c3 * t + 2 * c2;
+      if (std::abs(ddF) * dt * dt <= 2 * std::abs(dF) * tol && std::abs(dt) <= 1e-4 * std::sqrt(scale)) break;
+    }
+    // (u, v) from the cross products with W = A x B.
+    const Vec3 A = f.e1 + t * f.f1, B = f.e2 + t * f.f2, r = d - t * f.n0;
+    const Vec3 W = f.k0 + t * (f.k1 + t * f.k2);
+    const double ww = W.squaredNorm();
+    if (!(ww > 0)) return false;
+    u = r.cross(B).dot(W) / ww;
+    v = A.cross(r).dot(W) / ww;
+    if (!std::isfinite(u) || !std::isfinite(v)) return false;
+    // The residual of the original equation, at round-off level (as accepted
+    // by a converged Newton solve).
+    const Vec3 residual = u * A + v * B - r;
+    if (!(residual.squaredNorm() <= 1e-16 * scale)) return false;
   }
-  if (!converged) return false;
   b = Vec3(1 - u - v, u, v);
   return true;
+}
+
+bool solve_interpolated_normal(const mesh::SurfaceMesh& mesh, Index t, const Vec3& probe, Vec3& b) {
+  TriangleFrame f;
+  make_frame(mesh, t, f);
+  return solve_interpolated_normal(f, probe, b);
 }
 
 // Closest point of the triangle (a, b, c) to p, as barycentric weights: the
@@ -112,7 +176,7 @@ inline Vec3 interpolate(const std::vector<Vec3>& values, const mesh::Triangle& t
 void try_inside(const mesh::SurfaceMesh& mesh, Index t, const Vec3& probe, Candidate& best) {
   const mesh::Triangle& tri = mesh.triangles[t];
   Vec3 b;
-  if (!solve_interpolated_normal(mesh, tri, probe, b)) return;
+  if (!solve_interpolated_normal(mesh, t, probe, b)) return;
   if (b.minCoeff() < -kInsideTolerance) return;
   b = b.cwiseMax(0.0);
   b /= b.sum();
@@ -149,6 +213,101 @@ void visit(const mesh::SurfaceMesh& mesh, Index v, bool ring, bool wide, F&& f) 
   for (Index u : mesh.vertex_neighbors.row(v))
     for (Index t : mesh.vertex_triangles.row(u))
       if (!has_vertex(mesh.triangles[t], v)) f(t);
+}
+
+// The virtual vertex on triangle t (corner positions p, m, and unit normals
+// nrm) at weights b: interpolated point and unit normal, and the offset of
+// the probe along that normal.
+SurfacePoint finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec3& b, const Vec3& probe,
+                    bool inside) {
+  SurfacePoint sp;
+  sp.triangle = t;
+  sp.barycentric = b;
+  sp.inside = inside;
+  sp.point = b[0] * p[0] + b[1] * p[1] + b[2] * p[2];
+  const Vec3 n = b[0] * nrm[0] + b[1] * nrm[1] + b[2] * nrm[2];
+  const double len = n.norm();
+  sp.normal = len > 0 && std::isfinite(len) ? Vec3(n / len) : Vec3((p[1] - p[0]).cross(p[2] - p[0]).normalized());
+  sp.offset = (probe - sp.point).dot(sp.normal);
+  return sp;
+}
+
+SurfacePoint finish(const mesh::SurfaceMesh& mesh, Index t, const Vec3& b, const Vec3& probe, bool inside) {
+  const mesh::Triangle& tri = mesh.triangles[t];
+  const Vec3 p[3] = {mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
+  const Vec3 n[3] = {mesh.normals[tri[0]], mesh.normals[tri[1]], mesh.normals[tri[2]]};
+  return finish(p, n, t, b, probe, inside);
+}
+
+// The triangle on the other side of edge (a, b) of triangle t: the one other
+// triangle in both vertices' rows of vertex_triangles; kNoIndex on a border
+// or a non-manifold edge. (For meshes whose triangle_neighbors table was not
+// built.)
+Index across_edge(const mesh::SurfaceMesh& mesh, Index t, Index a, Index b) {
+  Index found = kNoIndex;
+  const auto ring_b = mesh.vertex_triangles.row(b);
+  for (Index s : mesh.vertex_triangles.row(a)) {
+    if (s == t || s == found) continue;
+    for (Index r : ring_b) {
+      if (r != s) continue;
+      if (found != kNoIndex) return kNoIndex;  // a third triangle on the edge
+      found = s;
+      break;
+    }
+  }
+  return found;
+}
+
+// The walk of walk_surface_point, preparing each triangle in `frame` (kept
+// when it already holds the start triangle of this mesh). With
+// `max_move_from` set, it first declines when the probe is farther from that
+// point than the longest edge of the start triangle (a jump: the tree is the
+// better start). On success also gives the triangle's vertex nearest to the
+// probe.
+SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* max_move_from,
+                  TriangleFrame& frame, Index& nearest_vertex) {
+  const SurfacePoint none;
+  if (start >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
+      mesh.vertex_triangles.rows() != mesh.vertex_count() || !probe.allFinite())
+    return none;
+  const bool neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
+  Index t = start, previous = kNoIndex;
+  for (int step = 0; step < kMaxWalkSteps; ++step) {
+    if (frame.mesh != &mesh || frame.triangle != t) make_frame(mesh, t, frame);
+    const TriangleFrame& f = frame;
+    // Jump test on the start triangle: moved farther than its longest edge.
+    if (step == 0 && max_move_from) {
+      const double longest_sq = std::max({f.a11, f.a22, f.e3_sq});
+      if (!((probe - *max_move_from).squaredNorm() <= longest_sq)) return none;
+    }
+    Vec3 b;
+    if (!solve_interpolated_normal(f, probe, b)) return none;
+    if (b.minCoeff() >= -kInsideTolerance) {
+      // Inside: the same weights and virtual vertex as locate_surface_point's.
+      b = b.cwiseMax(0.0);
+      b /= b.sum();
+      SurfacePoint sp = finish(f.p, f.n, t, b, probe, true);
+      // Still below the surface (a probe that left is for the tree to place),
+      // and within half the focal distance: 4 offset^2 |dn|^2 <= |dp|^2 on every edge.
+      if (!(sp.offset < 0)) return none;
+      const double o2 = 4 * sp.offset * sp.offset;
+      if (!(o2 * f.f1_sq <= f.a11 && o2 * f.f2_sq <= f.a22 && o2 * f.f3_sq <= f.e3_sq)) return none;
+      // The triangle's vertex nearest to the probe.
+      const Vec3 d = probe - f.p0;
+      const double d0 = d.squaredNorm(), d1 = (d - f.e1).squaredNorm(), d2 = (d - f.e2).squaredNorm();
+      nearest_vertex = d0 <= d1 && d0 <= d2 ? f.corners[0] : (d1 <= d2 ? f.corners[1] : f.corners[2]);
+      return sp;
+    }
+    // Outside: step across the edge opposite the most negative weight; a
+    // step straight back means the solution sits in no triangle here.
+    const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
+    const Index next = neighbors ? mesh.triangle_neighbors[t][k]
+                                 : across_edge(mesh, t, f.corners[(k + 1) % 3], f.corners[(k + 2) % 3]);
+    if (next == kNoIndex || next == previous) return none;
+    previous = t;
+    t = next;
+  }
+  return none;
 }
 
 }  // namespace
@@ -200,29 +359,72 @@ SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& pro
     visit(mesh, nearest_vertex, true, true, [&](Index t) { try_closest(mesh, t, probe, best); });
   if (best.triangle == kNoIndex) return sp;
 
-  // The virtual vertex: interpolated point and unit normal, and the offset
-  // of the probe along that normal.
-  const mesh::Triangle& tri = mesh.triangles[best.triangle];
-  sp.triangle = best.triangle;
-  sp.barycentric = best.b;
-  sp.point = interpolate(mesh.positions, tri, best.b);
-  const Vec3 n = interpolate(mesh.normals, tri, best.b);
-  const double len = n.norm();
-  sp.normal = len > 0 && std::isfinite(len)
-                  ? Vec3(n / len)
-                  : Vec3((mesh.positions[tri[1]] - mesh.positions[tri[0]])
-                             .cross(mesh.positions[tri[2]] - mesh.positions[tri[0]])
-                             .normalized());
-  sp.offset = (probe - sp.point).dot(sp.normal);
-  return sp;
+  return finish(mesh, best.triangle, best.b, probe, sp.inside);
 }
 
-HeightCheck height_check(const SurfacePoint& sp, const Vec3& heights) {
-  // 1-D test along the interpolated normal (section III.C).
+SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle) {
+  Index unused = kNoIndex;
+  TriangleFrame frame;
+  return walk(mesh, probe, start_triangle, nullptr, frame, unused);
+}
+
+ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
+                            ContactCursor& cursor, bool in_contact) {
+  ContactAnswer ans;
+  if (!probe.allFinite()) return ans;
+  // In contact: walk from the last triangle (declines on a jump).
+  if (in_contact && cursor.triangle < mesh.triangle_count()) {
+    Index nearest = kNoIndex;
+    ans.surface = walk(mesh, probe, cursor.triangle, &cursor.probe, cursor.frame, nearest);
+    if (ans.surface.triangle != kNoIndex) {
+      ans.nearest_vertex = nearest;
+      ans.path = ContactPath::Walk;
+      cursor.triangle = ans.surface.triangle;
+      cursor.probe = probe;
+      // Ask for the triangle across the nearest edge now, and once it has
+      // arrived (the next query on this triangle) for its far corner, so that
+      // stepping across costs no wait on memory. No effect on results.
+      const Vec3& b = ans.surface.barycentric;
+      const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
+      const Index next = mesh.triangle_neighbors.size() == mesh.triangle_count()
+                             ? mesh.triangle_neighbors[cursor.triangle][k]
+                             : kNoIndex;
+      if (next < mesh.triangle_count()) {
+        if (next == cursor.ahead) {
+          const Index far = mesh.triangles[next][0] + mesh.triangles[next][1] + mesh.triangles[next][2] -
+                            cursor.frame.corners[(k + 1) % 3] - cursor.frame.corners[(k + 2) % 3];
+          if (far < mesh.vertex_count()) {
+            __builtin_prefetch(&mesh.positions[far]);
+            __builtin_prefetch(&mesh.normals[far]);
+          }
+        } else {
+          __builtin_prefetch(&mesh.triangles[next]);
+        }
+      }
+      cursor.ahead = next;
+      return ans;
+    }
+  }
+  // Otherwise: exact nearest vertex by the tree's local search, then the
+  // surface point around it.
+  const NearestVertex nv = tree.nearest_local(probe, cursor.tree);
+  cursor.triangle = kNoIndex;
+  if (nv.vertex == kNoIndex || nv.vertex >= mesh.vertex_count()) return ContactAnswer{};
+  ans.nearest_vertex = nv.vertex;
+  ans.surface = locate_surface_point(mesh, probe, nv.vertex);
+  ans.path = ContactPath::Tree;
+  cursor.triangle = ans.surface.triangle;
+  cursor.probe = probe;
+  return ans;
+}
+
+HeightCheck height_check(const SurfacePoint& sp, const Vec3& heights, bool was_in_contact) {
+  // 1-D test along the interpolated normal (section III.C), hysteretic: a
+  // contact that exists holds while the probe is below the rest surface.
   HeightCheck hc;
   hc.surface_height = sp.barycentric.dot(heights);
   hc.depth = -sp.offset;
-  hc.in_contact = sp.offset < 0 && sp.offset <= hc.surface_height;
+  hc.in_contact = sp.offset < 0 && (was_in_contact || sp.offset <= hc.surface_height);
   return hc;
 }
 

@@ -1,5 +1,9 @@
 #pragma once
-// Contact point interpolation and the 1-D height check (section III.C).
+// Contact point interpolation and the 1-D height check (section III.C), and
+// the contact query of the haptic tick: the in-contact walk of section V.A
+// ("nearest vertex search is performed linearly moving through
+// neighbourhoods when probe is in contact with surface") with the vertex
+// tree as its exact fallback.
 
 #include "collision/vertex_tree.h"
 #include "mesh/surface_mesh.h"
@@ -22,18 +26,107 @@ struct SurfacePoint {
 /// triangle contains the projection). No allocation.
 SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index nearest_vertex);
 
+/// Most triangles the in-contact walk visits before it gives up.
+inline constexpr int kMaxWalkSteps = 6;
+
+/// The in-contact walk: solves the interpolated-normal equation on
+/// `start_triangle` (the last contact triangle) and, while the solution lies
+/// outside the triangle, steps across the edge opposite the most negative
+/// barycentric weight (at most kMaxWalkSteps triangles; the neighbour across
+/// an edge comes from mesh.triangle_neighbors, or from mesh.vertex_triangles
+/// when that table is absent). It answers only when it ends
+/// inside a triangle (weights within 1e-9 of [0, 1]) with the probe below
+/// the undeformed surface (offset < 0) and within half the focal distance
+/// there, |offset| * kappa <= 1/2, where kappa (1/m) is the largest rate at
+/// which the vertex normals turn along the triangle's edges,
+/// |n_a - n_b| / |p_a - p_b| (1/R on a sphere of radius R with radial
+/// normals). Otherwise (border or non-manifold edge, degenerate triangle,
+/// too many steps, stepping back, probe above or too deep) it returns
+/// triangle == kNoIndex. On the triangle it ends on, the answer is
+/// bit-identical to locate_surface_point's. It follows the contact
+/// continuously: where a fold of the surface is about as thin as the probe
+/// is deep, several triangles' normals can pass through the probe, and the
+/// walk keeps the one the contact slid in from while locate_surface_point
+/// picks by the nearest vertex, so the two may differ there. No allocation.
+SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle);
+
+/// One triangle prepared for the interpolated-normal equation: its corners
+/// and per-triangle constants, so a walk that stays on a triangle does not
+/// rebuild them every tick. Filled by the walk; valid for `mesh` (unchanged)
+/// and `triangle`.
+struct TriangleFrame {
+  const mesh::SurfaceMesh* mesh = nullptr;
+  Index triangle = kNoIndex;
+  mesh::Triangle corners{kNoIndex, kNoIndex, kNoIndex};
+  /// Corner positions (m) and unit normals, as in the mesh.
+  Vec3 p[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  Vec3 n[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  Vec3 p0 = Vec3::Zero(), e1 = Vec3::Zero(), e2 = Vec3::Zero();  ///< first corner and edges from it, m
+  Vec3 n0 = Vec3::Zero(), f1 = Vec3::Zero(), f2 = Vec3::Zero();  ///< first corner's unit normal and normal differences
+  Vec3 k0 = Vec3::Zero(), k1 = Vec3::Zero(), k2 = Vec3::Zero();  ///< e1 x e2 (m^2), f1 x e2 + e1 x f2 (m), f1 x f2
+  double nk0 = 0, nk1 = 0, nk2 = 0;        ///< n0 . k0, n0 . k1, n0 . k2
+  double a11 = 0, a12 = 0, a22 = 0, det = 0;  ///< edge Gram matrix (m^2) and its determinant (m^4)
+  double e3_sq = 0;                        ///< |e2 - e1|^2, m^2
+  double f1_sq = 0, f2_sq = 0, f3_sq = 0;  ///< |f1|^2, |f2|^2, |f2 - f1|^2
+  bool flat = false;                       ///< all three normals equal
+};
+
+/// Per-probe memory of query_contact. Plain data; value-initialised means
+/// "no previous answer".
+struct ContactCursor {
+  SearchCursor tree;          ///< leaf of the last tree answer (local search of section V.A)
+  Index triangle = kNoIndex;  ///< triangle of the last answer
+  Vec3 probe = Vec3::Zero();  ///< probe position of the last answer, m
+  TriangleFrame frame;        ///< the walk's last triangle, prepared
+  /// The triangle across the edge of `triangle` nearest to the last answer
+  /// (where a sliding probe goes next); its data is fetched ahead of time.
+  Index ahead = kNoIndex;
+};
+
+/// Which way query_contact found its answer.
+enum class ContactPath : unsigned char {
+  None = 0,  ///< no answer (bad input or empty mesh)
+  Walk = 1,  ///< in-contact walk from the last triangle
+  Tree = 2,  ///< nearest vertex by the tree's local search + locate_surface_point
+};
+
+/// What query_contact found.
+struct ContactAnswer {
+  SurfacePoint surface;
+  /// The nearest vertex (exact, from the tree) on the Tree path; on the Walk
+  /// path the vertex of the contact triangle nearest to the probe.
+  Index nearest_vertex = kNoIndex;
+  ContactPath path = ContactPath::None;
+};
+
+/// The contact query of one haptic tick. When `in_contact` (the caller's
+/// verdict on the previous answer: the probe was touching the surface) and
+/// the probe moved less than the longest edge of the last triangle since
+/// then, the walk runs from that triangle; when it declines, or otherwise,
+/// the tree's local search finds the exact nearest vertex and
+/// locate_surface_point the surface point around it. Updates the cursor. No
+/// allocation.
+ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
+                            ContactCursor& cursor, bool in_contact);
+
 /// Result of the height check: the probe against the current deformed height
 /// interpolated at the virtual vertex.
 struct HeightCheck {
   double surface_height = 0;  ///< interpolated h at the virtual vertex, m
   double depth = 0;           ///< -offset: penetration below the undeformed surface, m
-  bool in_contact = false;    ///< offset < 0 and offset <= surface_height
+  /// offset < 0, and offset <= surface_height for a new contact (see height_check).
+  bool in_contact = false;
 };
 
 /// The 1-D height check: the probe touches the surface when it lies below
-/// the undeformed surface and not above the current deformed one along the
-/// interpolated normal. `heights` holds the current h (m) of the three
-/// vertices of sp.triangle, in the triangle's vertex order.
-HeightCheck height_check(const SurfacePoint& sp, const Vec3& heights);
+/// the undeformed surface (offset < 0) and, for a new contact, not above the
+/// current deformed one along the interpolated normal (offset <=
+/// surface_height). It is hysteretic: with `was_in_contact` (the probe
+/// touched at the previous tick) the contact holds while offset < 0 even
+/// when the surface has moved past the probe, so an under-damped surface
+/// that overshoots the probe does not make the contact flicker. `heights`
+/// holds the current h (m) of the three vertices of sp.triangle, in the
+/// triangle's vertex order.
+HeightCheck height_check(const SurfacePoint& sp, const Vec3& heights, bool was_in_contact = false);
 
 }  // namespace palpa::collision

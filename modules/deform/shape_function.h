@@ -25,6 +25,9 @@ struct ShapeFunction {
   double value(double r) const;
   /// dS/dr, 1/m.
   double derivative(double r) const;
+  /// Both at once: value = value(r), slope = derivative(r) (1/m), with the
+  /// same arithmetic (so the same bits) at the cost of one evaluation.
+  void evaluate(double r, double& value, double& slope) const;
 };
 
 }  // namespace palpa::deform

@@ -7,9 +7,14 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace palpa::deform {
 
@@ -145,17 +150,20 @@ void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
 // ---------------------------------------------------------------------------
 // Force fields (section III.B) and normal corrections (eq. 3).
 
-void DeformableSurface::add_field(Index i, const Contact& c, double r) {
-  // Force that holds vertex i at the shape function's height -depth S(r).
+void DeformableSurface::add_field(Index i, const Contact& c, const Vec3& d, double r) {
+  // d = P0_i - contact point (m), r = |d|. Force that holds vertex i at the
+  // shape function's height -depth S(r) (the Linear law k h written inline).
+  double shape = 0.0, slope = 0.0;
+  c.shape.evaluate(r, shape, slope);
   const Material& m = integrators_[integrator_of_[i]].material;
-  force_[i] += local_model(m.model).equilibrium_force(m, -c.depth * c.shape.value(r));
+  const double h = -c.depth * shape;
+  force_[i] += m.model == LocalModelKind::Linear ? m.stiffness * h : local_model(m.model).equilibrium_force(m, h);
 
   // eq. (3): depth S'(r) along the tangential direction away from the contact.
   const Vec3& n0 = mesh_->normals[i];
-  const Vec3 d = mesh_->positions[i] - c.point;
   const Vec3 t = d - d.dot(n0) * n0;
   const double len = t.norm();
-  if (len > 1e-12 * c.shape.radius) correction_[i] += (c.depth * c.shape.derivative(r) / len) * t;
+  if (len > 1e-12 * c.shape.radius) correction_[i] += (c.depth * slope / len) * t;
 
   if (!(flags_[i] & kForced)) {
     flags_[i] |= kForced;
@@ -173,9 +181,10 @@ void DeformableSurface::field_by_bfs(const Contact& c) {
   flags_[c.vertex] |= kVisited;
   for (std::size_t head = 0; head < bfs_queue_.size(); ++head) {
     const Index i = bfs_queue_[head];
-    const double r = (pos[i] - c.point).norm();
+    const Vec3 d = pos[i] - c.point;
+    const double r = d.norm();
     if (!(r < radius)) continue;
-    add_field(i, c, r);
+    add_field(i, c, d, r);
     for (Index j : mesh_->vertex_neighbors.row(i)) {
       if (!(flags_[j] & kVisited)) {
         flags_[j] |= kVisited;
@@ -200,7 +209,7 @@ void DeformableSurface::field_by_scan(const Contact& c, const Vec3& n) {
     if (d.squaredNorm() > reject2) continue;
     const double r = d.norm();
     if (!(r < radius) || nrm[i].dot(n) < options_.min_normal_cosine) continue;
-    add_field(i, c, r);
+    add_field(i, c, d, r);
   }
 }
 
@@ -355,23 +364,72 @@ void DeformableSurface::step(double dt) {
   state_.time += dt;
 }
 
+namespace {
+
+// True when the vertices [i, i + 8) have no field or active flag and an
+// all-zero state (every bit of h, v, q zero; a -0.0 is left to the exact
+// per-vertex test). One pass over the flags and the 192 bytes of state.
+inline bool block_at_rest(const std::uint8_t* flags, const VertexState* state) {
+  std::uint64_t f;
+  std::memcpy(&f, flags, sizeof f);
+  if (f & 0x0303030303030303ull) return false;  // kForced | kActive in any of the 8 bytes
+  static_assert(sizeof(VertexState) == 24 && kForced == 2 && kActive == 1);
+#if defined(__SSE2__)
+  const auto* p = reinterpret_cast<const __m128i*>(state);
+  __m128i acc = _mm_or_si128(_mm_loadu_si128(p + 0), _mm_loadu_si128(p + 1));
+  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 2), _mm_loadu_si128(p + 3)));
+  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 4), _mm_loadu_si128(p + 5)));
+  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 6), _mm_loadu_si128(p + 7)));
+  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 8), _mm_loadu_si128(p + 9)));
+  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 10), _mm_loadu_si128(p + 11)));
+  return _mm_movemask_epi8(_mm_cmpeq_epi8(acc, _mm_setzero_si128())) == 0xffff;
+#else
+  std::uint64_t acc = 0;
+  for (int k = 0; k < 8; ++k) {
+    std::uint64_t w[3];
+    std::memcpy(w, &state[k], sizeof w);
+    acc |= w[0] | w[1] | w[2];
+  }
+  return acc == 0;
+#endif
+}
+
+}  // namespace
+
 void DeformableSurface::step_full(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return;
   prepare_step(dt);
 
   // Advance every vertex; the active set becomes those not at rest or in a
   // field. A vertex exactly at rest, with no field and not active, would stay
-  // exactly at rest under every model, so it is only read.
+  // exactly at rest under every model, so it is only read: blocks of eight
+  // such vertices are skipped with one test, the others go one by one in
+  // index order (the same order and arithmetic as step()).
   Sweep sweep(*this, dt);
   Index* active = active_.data();
   const VertexState* state = state_.vertices.data();
   const std::uint8_t* flags = flags_.data();
   std::size_t kept = 0;
   const Index count = static_cast<Index>(mesh_->vertex_count());
-  for (Index i = 0; i < count; ++i) {
-    if (!(flags[i] & (kForced | kActive)) && at_rest(state[i])) continue;
+  auto one = [&](Index i) {
+    if (!(flags[i] & (kForced | kActive)) && at_rest(state[i])) return;
     if (sweep.advance(i)) active[kept++] = i;
+  };
+  // The state is also asked for 256 vertices (6 KB) ahead of the test: the
+  // hardware prefetcher alone does not keep the read at memory bandwidth.
+  constexpr Index kAhead = 256;
+  Index i = 0;
+  for (; i + 8 <= count; i += 8) {
+    if (i + kAhead + 8 <= count) {
+      const char* ahead = reinterpret_cast<const char*>(state + i + kAhead);
+      __builtin_prefetch(ahead);
+      __builtin_prefetch(ahead + 64);
+      __builtin_prefetch(ahead + 128);
+    }
+    if (block_at_rest(flags + i, state + i)) continue;
+    for (Index j = i; j < i + 8; ++j) one(j);
   }
+  for (; i < count; ++i) one(i);
   active_size_ = kept;
   sweep.finish(*this);
   state_.time += dt;

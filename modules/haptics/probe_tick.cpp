@@ -1,6 +1,7 @@
-// One haptic tick (sections III.C and III.E): nearest vertex by local search,
-// virtual vertex on the closest triangle, 1-D height check, local model at
-// the virtual vertex, eq. (4), clamp.
+// One haptic tick (sections III.C, III.E, V.A): contact query (in-contact
+// walk from the last triangle, else nearest vertex by the tree's local
+// search and the virtual vertex around it), hysteretic 1-D height check,
+// local model at the virtual vertex, eq. (4), clamp.
 
 #include "haptics/probe_tick.h"
 
@@ -13,16 +14,16 @@ namespace {
 
 // The material of the virtual vertex: every parameter interpolated with the
 // barycentric weights; the model kind of the heaviest vertex.
-deform::Material interpolate_material(const deform::MaterialArrays& mats, const mesh::Triangle& tri,
+deform::Material interpolate_material(const deform::DeformableSurface& surface, const mesh::Triangle& tri,
                                       const Vec3& b) {
   int heaviest = 0;
   if (b[1] > b[heaviest]) heaviest = 1;
   if (b[2] > b[heaviest]) heaviest = 2;
   deform::Material m;
-  m.model = mats.model[tri[heaviest]];
+  m.model = surface.material(tri[heaviest]).model;
   m.mass = m.damping = m.stiffness = m.alpha = m.k2 = m.tau = 0;
   for (int k = 0; k < 3; ++k) {
-    const deform::Material mk = mats.at(tri[k]);
+    const deform::Material& mk = surface.material(tri[k]);
     m.mass += b[k] * mk.mass;
     m.damping += b[k] * mk.damping;
     m.stiffness += b[k] * mk.stiffness;
@@ -39,26 +40,32 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
               const deform::ShapeFunction& shape) {
   const mesh::SurfaceMesh& mesh = surface.mesh();
   const auto& states = surface.state().vertices;
+  // Contact only if proven below; the walk needs last tick's verdict.
+  const bool was_in_contact = memory.in_contact;
+  memory.in_contact = false;
   if (!in.position.allFinite()) return;
   // A non-finite velocity is treated as rest (no damping, no friction).
   const Vec3 velocity = in.velocity.allFinite() ? in.velocity : Vec3::Zero();
 
-  // Collision: nearest vertex, virtual vertex, height check (section III.C).
-  const collision::NearestVertex nv = tree.nearest_local(in.position, memory.cursor);
-  if (nv.vertex == kNoIndex || nv.vertex >= mesh.vertex_count()) return;
-  out.nearest_vertex = nv.vertex;
-  out.surface = collision::locate_surface_point(mesh, in.position, nv.vertex);
+  // Collision: contact query (walk or tree), virtual vertex, height check (section III.C).
+  const collision::ContactAnswer ca = collision::query_contact(mesh, tree, in.position, memory.cursor, was_in_contact);
+  if (ca.nearest_vertex == kNoIndex) return;
+  out.nearest_vertex = ca.nearest_vertex;
+  out.path = ca.path;
+  out.surface = ca.surface;
   if (out.surface.triangle == kNoIndex) return;
   const mesh::Triangle& tri = mesh.triangles[out.surface.triangle];
   if (states.size() != mesh.vertex_count() || surface.materials().size() != mesh.vertex_count()) return;
   const Vec3& b = out.surface.barycentric;
   const Vec3 heights(states[tri[0]].h, states[tri[1]].h, states[tri[2]].h);
-  out.height = collision::height_check(out.surface, heights);
+  out.height = collision::height_check(out.surface, heights, was_in_contact);
   if (!out.height.in_contact) return;
+  memory.in_contact = true;
+  memory.corners = tri;
 
   // Normal reaction of the interpolated local model at the probe's height
   // h = -depth moving at dh/dt = v . N (section III.E).
-  const deform::Material m = interpolate_material(surface.materials(), tri, b);
+  const deform::Material m = interpolate_material(surface, tri, b);
   const double q = b[0] * states[tri[0]].q + b[1] * states[tri[1]].q + b[2] * states[tri[2]].q;
   const double h = -out.height.depth;
   const double dhdt = velocity.dot(out.surface.normal);
@@ -76,7 +83,7 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
   out.in_contact = true;
   out.contact.point = out.surface.point;
   out.contact.normal = out.surface.normal;
-  out.contact.vertex = nv.vertex;
+  out.contact.vertex = ca.nearest_vertex;
   out.contact.depth = out.height.depth;
   out.contact.shape = shape;
 }
@@ -87,8 +94,33 @@ void haptic_tick(const deform::DeformableSurface& surface, const collision::Vert
                  std::span<const ProbeInput> probes, std::span<ProbeMemory> memory,
                  std::span<ProbeOutput> outputs, const ForceParams& params,
                  const deform::ShapeFunction& shape) {
-  // Each probe independently; mismatched sizes run the common prefix.
   const std::size_t n = std::min({probes.size(), memory.size(), outputs.size()});
+  // Probes in contact will start from their last triangle: ask for its
+  // vertices' data for all probes at once, so their cache misses overlap
+  // instead of adding up (no effect on results).
+  const mesh::SurfaceMesh& mesh = surface.mesh();
+  const bool fits = surface.state().vertices.size() == mesh.vertex_count();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Index t = memory[i].cursor.triangle;
+    if (!memory[i].in_contact || t >= mesh.triangle_count()) continue;
+    __builtin_prefetch(&mesh.triangles[t]);
+    if (t < mesh.triangle_neighbors.size()) __builtin_prefetch(&mesh.triangle_neighbors[t]);
+    // The walk keeps the triangle's geometry in the cursor; the surface
+    // state of its corners is read after it.
+    for (Index v : memory[i].corners)
+      if (fits && v < mesh.vertex_count()) surface.prefetch_vertex(v);
+  }
+  // The far corner of the triangle across the nearest edge (the walk fetched
+  // that triangle ahead), in case the probe steps across.
+  for (std::size_t i = 0; i < n; ++i) {
+    const Index a = memory[i].cursor.ahead;
+    if (!fits || !memory[i].in_contact || a >= mesh.triangle_count()) continue;
+    for (Index v : mesh.triangles[a])
+      if (v < mesh.vertex_count() && v != memory[i].corners[0] && v != memory[i].corners[1] &&
+          v != memory[i].corners[2])
+        surface.prefetch_vertex(v);
+  }
+  // Each probe independently; mismatched sizes run the common prefix.
   for (std::size_t i = 0; i < n; ++i) {
     outputs[i] = ProbeOutput{};
     tick_one(surface, tree, probes[i], memory[i], outputs[i], params, shape);

@@ -1,7 +1,8 @@
 #pragma once
-// One haptic tick for several probes: collision (nearest vertex by local
-// search, contact interpolation, height check), the local model at the
-// virtual vertex and eq. (4). No allocation, no locks, no exceptions.
+// One haptic tick for several probes: collision (contact query: the
+// in-contact walk of section V.A or the tree's local search, contact
+// interpolation, hysteretic height check), the local model at the virtual
+// vertex and eq. (4). No allocation, no locks, no exceptions.
 
 #include "collision/contact.h"
 #include "collision/vertex_tree.h"
@@ -25,13 +26,25 @@ struct ProbeOutput {
   bool in_contact = false;
   collision::SurfacePoint surface;    ///< virtual vertex under the probe
   collision::HeightCheck height;      ///< height check result
+  /// Nearest vertex: exact when path == Tree; on the Walk path the contact
+  /// triangle's vertex nearest to the probe (see collision::ContactAnswer).
   Index nearest_vertex = kNoIndex;
+  collision::ContactPath path = collision::ContactPath::None;  ///< how the contact query answered
   deform::Contact contact;            ///< the contact to feed the surface (valid when in_contact)
 };
 
-/// Per-probe persistent data (the local-search cursor and the last position).
+/// Per-probe persistent data between ticks. Value-initialised = no history.
 struct ProbeMemory {
-  collision::SearchCursor cursor;
+  /// Last contact triangle, probe position and tree leaf (collision::query_contact).
+  collision::ContactCursor cursor;
+  /// The probe was in contact at the last tick: enables the in-contact walk
+  /// and makes the height check hysteretic (the contact holds while the probe
+  /// is below the undeformed surface, offset < 0, even when the deformed
+  /// surface overshoots past it; a new contact needs offset <= h as well).
+  bool in_contact = false;
+  /// Vertices of cursor.triangle (valid with it), so the next tick can ask
+  /// for their data before it reads the triangle.
+  mesh::Triangle corners{kNoIndex, kNoIndex, kNoIndex};
 };
 
 /// Runs one tick for probes.size() probes against the surface's current

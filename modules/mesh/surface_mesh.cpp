@@ -70,6 +70,26 @@ void build_adjacency(SurfaceMesh& mesh) {
       if (*it != v) vn.items.push_back(*it);
     vn.offsets[v + 1] = Index(vn.items.size());
   }
+
+  // Triangle across each edge: the one other triangle in both end vertices'
+  // rows; none (kNoIndex) on a border or a non-manifold edge.
+  mesh.triangle_neighbors.assign(nt, Triangle{kNoIndex, kNoIndex, kNoIndex});
+  for (std::size_t t = 0; t < nt; ++t) {
+    const Triangle& tri = mesh.triangles[t];
+    for (int k = 0; k < 3; ++k) {
+      const Index a = tri[(k + 1) % 3], b = tri[(k + 2) % 3];
+      Index found = kNoIndex;
+      bool unique = true;
+      for (Index s : vt.row(a)) {
+        if (s == t || s == found) continue;
+        const Triangle& o = mesh.triangles[s];
+        if (o[0] != b && o[1] != b && o[2] != b) continue;
+        if (found != kNoIndex) unique = false;
+        found = s;
+      }
+      if (unique) mesh.triangle_neighbors[t][k] = found;
+    }
+  }
 }
 
 void finalize(SurfaceMesh& mesh) {

@@ -32,6 +32,10 @@ struct SurfaceMesh {
   std::vector<Vec3> normals;       ///< unit outward vertex normals (area-weighted)
   Csr vertex_neighbors;            ///< one-ring vertices of each vertex, sorted
   Csr vertex_triangles;            ///< triangles incident to each vertex
+  /// Per triangle, the triangle across the edge opposite each corner k (the
+  /// edge from corner k+1 to corner k+2, mod 3); kNoIndex on a border edge or
+  /// an edge shared by more than two triangles.
+  std::vector<Triangle> triangle_neighbors;
 
   std::size_t vertex_count() const { return positions.size(); }
   std::size_t triangle_count() const { return triangles.size(); }
@@ -41,7 +45,7 @@ struct SurfaceMesh {
 /// with no non-degenerate incident triangle gets (0,0,1)).
 void compute_normals(SurfaceMesh& mesh);
 
-/// Builds vertex_neighbors and vertex_triangles from the triangles.
+/// Builds vertex_neighbors, vertex_triangles and triangle_neighbors from the triangles.
 void build_adjacency(SurfaceMesh& mesh);
 
 /// compute_normals + build_adjacency.

@@ -3,10 +3,15 @@
 #include "collision/contact.h"
 #include "common/test_support.h"
 #include "mesh/generate.h"
+#include "mesh/io.h"
+
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
+#include <vector>
 
 namespace palpa::collision {
 namespace {
@@ -183,6 +188,283 @@ TEST(Contact, SphereWithRadialNormalsIsExactlyRadial) {
   }
 }
 
+// ---------------------------------------------------------------------------
+// The in-contact walk against the full query (nearest vertex by brute force,
+// then locate_surface_point), along sliding trajectories.
+
+// The reference answer: brute-force nearest vertex, surface point around it.
+SurfacePoint full_query(const mesh::SurfaceMesh& m, const Vec3& q) {
+  return locate_surface_point(m, q, nearest_brute_force(m.positions, q).vertex);
+}
+
+double longest_edge(const mesh::SurfaceMesh& m) {
+  double h = 0;
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) h = std::max(h, (m.positions[t[k]] - m.positions[t[(k + 1) % 3]]).norm());
+  return h;
+}
+
+// A probe sliding `depth` (m) below the surface: every step moves the surface
+// point `step` (m) along a heading that turns by up to 0.1 rad, then finds
+// the surface point of that position by the full query. Starts at a seeded vertex.
+std::vector<Vec3> sliding_path(const mesh::SurfaceMesh& m, std::mt19937& rng, int steps, double step,
+                               double depth) {
+  std::uniform_int_distribution<Index> vertex(0, static_cast<Index>(m.vertex_count() - 1));
+  std::uniform_real_distribution<double> turn(-0.1, 0.1);
+  std::normal_distribution<double> g;
+  const Index v0 = vertex(rng);
+  Vec3 point = m.positions[v0], normal = m.normals[v0];
+  auto tangent = [](const Vec3& d, const Vec3& n) {
+    const Vec3 t = d - d.dot(n) * n;
+    return t.norm() > 1e-9 ? Vec3(t.normalized()) : Vec3(n.unitOrthogonal());
+  };
+  Vec3 heading = tangent(Vec3(g(rng), g(rng), g(rng)), normal);
+  std::vector<Vec3> path;
+  for (int k = 0; k < steps; ++k) {
+    path.push_back(point - depth * normal);
+    const double a = turn(rng);
+    heading = std::cos(a) * heading + std::sin(a) * normal.cross(heading);
+    const SurfacePoint sp = full_query(m, point + step * heading);
+    if (sp.triangle == kNoIndex) break;
+    point = sp.point;
+    normal = sp.normal;
+    heading = tangent(heading, normal);
+  }
+  return path;
+}
+
+// Counts of a comparison of query_contact with the full query.
+struct WalkStats {
+  std::size_t queries = 0, walked = 0, same_triangle = 0, differ = 0;
+  WalkStats& operator+=(const WalkStats& o) {
+    queries += o.queries;
+    walked += o.walked;
+    same_triangle += o.same_triangle;
+    differ += o.differ;
+    return *this;
+  }
+};
+
+// Along the path, runs query_contact as the haptic tick does (in contact
+// while the probe is below the undeformed surface) and compares each answer
+// with the full query. Tree answers must be the full query itself (exact
+// nearest vertex). Walked answers must be a true solution (inside a
+// triangle, below the surface, the probe on the interpolated normal line
+// through the point) and are counted as differing unless they give the full
+// query's virtual vertex within tol (m); on the same triangle they must be
+// bit-identical to it.
+WalkStats compare_walk_with_full(const mesh::SurfaceMesh& m, const VertexTree& tree, const std::vector<Vec3>& path,
+                                 double tol, const std::string& what) {
+  WalkStats st;
+  ContactCursor cursor;
+  bool in_contact = false;
+  for (std::size_t k = 0; k < path.size(); ++k) {
+    const Vec3& q = path[k];
+    const SurfacePoint full = full_query(m, q);
+    ++st.queries;
+    const ContactAnswer ans = query_contact(m, tree, q, cursor, in_contact);
+    const SurfacePoint& got = ans.surface;
+    in_contact = got.triangle != kNoIndex && got.offset < 0;
+    EXPECT_EQ(cursor.triangle, got.triangle);
+    if (ans.path == ContactPath::Tree) {
+      EXPECT_EQ(ans.nearest_vertex, nearest_brute_force(m.positions, q).vertex) << what << " step " << k;
+      EXPECT_EQ(got.triangle, full.triangle) << what << " step " << k;
+      EXPECT_EQ(got.point, full.point) << what << " step " << k;
+      continue;
+    }
+    EXPECT_EQ(ans.path, ContactPath::Walk);
+    ++st.walked;
+    // A true solution: inside, below, probe = point + offset * normal.
+    const auto& tri = m.triangles[got.triangle];
+    EXPECT_TRUE(got.inside) << what << " step " << k;
+    EXPECT_LT(got.offset, 0.0) << what << " step " << k;
+    EXPECT_GE(got.barycentric.minCoeff(), 0.0) << what << " step " << k;
+    EXPECT_NEAR(got.barycentric.sum(), 1.0, 1e-15) << what << " step " << k;
+    EXPECT_LE((q - got.point - got.offset * got.normal).norm(), 1e-12 * (1 + q.norm())) << what << " step " << k;
+    EXPECT_TRUE(ans.nearest_vertex == tri[0] || ans.nearest_vertex == tri[1] || ans.nearest_vertex == tri[2]);
+    for (Index v : tri)
+      EXPECT_LE((m.positions[ans.nearest_vertex] - q).squaredNorm(), (m.positions[v] - q).squaredNorm());
+    // The full query's virtual vertex.
+    const bool same = full.inside && (got.point - full.point).norm() <= tol &&
+                      (got.normal - full.normal).norm() <= 1e-9 && std::abs(got.offset - full.offset) <= tol;
+    st.differ += !same;
+    if (got.triangle == full.triangle) {
+      ++st.same_triangle;
+      EXPECT_EQ(got.barycentric, full.barycentric) << what << " step " << k;
+      EXPECT_EQ(got.point, full.point) << what << " step " << k;
+      EXPECT_EQ(got.normal, full.normal) << what << " step " << k;
+      EXPECT_EQ(got.offset, full.offset) << what << " step " << k;
+    }
+  }
+  return st;
+}
+
+TEST(ContactWalk, MatchesTheFullQueryAlongSlidingPathsOnSpheres) {
+  // Area-weighted normals of the cube-sphere (not exactly radial); probes 0.2
+  // to 3 mm deep sliding 1/10 to 1 longest edge per step.
+  for (std::size_t n : {2000u, 20000u}) {
+    const double radius = 0.05;
+    const auto m = mesh::make_sphere(n, radius);
+    const double h = longest_edge(m);
+    const VertexTree tree(m.positions);
+    std::mt19937 rng(40 + static_cast<unsigned>(n));
+    WalkStats total;
+    for (double depth : {0.0002, 0.001, 0.003}) {
+      for (double step : {0.1 * h, 0.4 * h, h}) {
+        const std::string what = "sphere " + std::to_string(n) + " depth " + std::to_string(depth) + " step " +
+                                 std::to_string(step);
+        const auto path = sliding_path(m, rng, 300, step, depth);
+        ASSERT_EQ(path.size(), 300u);
+        const WalkStats st = compare_walk_with_full(m, tree, path, 1e-12, what);
+        // Short steps: every query after the first is walked (long ones may
+        // exceed the jump limit of the last triangle and go to the tree).
+        if (step < 0.5 * h) {
+          EXPECT_EQ(st.walked, st.queries - 1) << what;
+        }
+        total += st;
+      }
+    }
+    // On a sphere the walk always lands on the full query's virtual vertex,
+    // almost always on the very same triangle (else on a shared edge).
+    EXPECT_EQ(total.differ, 0u) << "sphere " << n;
+    EXPECT_GE(total.same_triangle, total.walked * 99 / 100) << "sphere " << n;
+    EXPECT_GE(total.walked, total.queries * 2 / 3) << "sphere " << n;
+  }
+}
+
+TEST(ContactWalk, MatchesTheFullQueryAlongSlidingPathsOnOrgans) {
+  // Probes 0.2 and 1 mm deep sliding over the shared organs. Where a fold is
+  // about as thin as the probe is deep the full query may change sheets (its
+  // nearest vertex moves to the other side) while the walk keeps the one the
+  // contact slid on, so a few answers may differ there (each still a true
+  // solution, checked in compare_walk_with_full).
+  PALPA_REQUIRE_SHARED_ORGANS();
+  struct Organ {
+    const char* file;
+    double unit_m;
+    double min_walked;  // fraction of queries the walk answers, at least
+    double max_differ;  // fraction of walked answers that may differ from the full query, at most
+  };
+  const Organ organs[] = {{"sofa_liver-smooth.obj", 1e-2, 0.95, 0.01},
+                          {"sofa_liver.vtk", 1e-3, 0.95, 0.0},
+                          {"sofa_coeur1.off", 1e-3, 0.95, 0.0},
+                          {"bp3d_FMA72717_right_cingulate_gyrus.obj", 1e-3, 0.80, 0.06},
+                          {"gca_EdinGCA_3D_00090_large_intestine_20k.vtk", 1e-3, 0.95, 0.0}};
+  for (const Organ& o : organs) {
+    mesh::LoadOptions lo;
+    lo.unit_m = o.unit_m;
+    lo.keep_largest_component = true;
+    const auto m = mesh::load_mesh(test::shared_organs_dir() / o.file, lo);
+    const double h = longest_edge(m);
+    const VertexTree tree(m.positions);
+    std::mt19937 rng(77);
+    WalkStats total;
+    for (double depth : {0.0002, 0.001}) {
+      for (int path_no = 0; path_no < 4; ++path_no) {
+        const auto path = sliding_path(m, rng, 250, 0.03 * h * (1 + path_no), depth);
+        total += compare_walk_with_full(m, tree, path, 1e-12, std::string(o.file));
+      }
+    }
+    std::printf("%s: %zu queries, %zu walked, %zu on the full query's triangle, %zu differ from it\n", o.file,
+                total.queries, total.walked, total.same_triangle, total.differ);
+    EXPECT_GE(static_cast<double>(total.walked), o.min_walked * static_cast<double>(total.queries)) << o.file;
+    EXPECT_LE(static_cast<double>(total.differ), o.max_differ * static_cast<double>(total.walked)) << o.file;
+  }
+}
+
+TEST(ContactWalk, CrossesEdgesToTheTriangleUnderTheProbe) {
+  // Flat grid with normals +z: the walk from a triangle a few edges away
+  // reaches the triangle holding the probe's foot, with locate's bits; from
+  // farther than kMaxWalkSteps triangles it declines.
+  const auto m = mesh::make_plane(21, 21, 0.005);
+  const Vec3 probe(0.0112, -0.0031, -0.001);
+  const SurfacePoint want = full_query(m, probe);
+  ASSERT_TRUE(want.inside);
+  std::size_t answered = 0, declined = 0;
+  for (Index t = 0; t < m.triangle_count(); ++t) {
+    const SurfacePoint got = walk_surface_point(m, probe, t);
+    Vec3 c = Vec3::Zero();
+    for (Index v : m.triangles[t]) c += m.positions[v] / 3;
+    const double dist = (c - want.point).norm();
+    if (got.triangle == kNoIndex) {
+      ++declined;
+      // Triangles within two edges of the foot are always close enough.
+      EXPECT_GT(dist, 2 * 0.005) << "triangle " << t;
+      continue;
+    }
+    ++answered;
+    EXPECT_LE((got.point - want.point).norm(), 1e-15) << "triangle " << t;
+    EXPECT_NEAR(got.offset, -0.001, 1e-15);
+    // Each step crosses one edge, so the walk cannot answer from far away.
+    EXPECT_LT(dist, kMaxWalkSteps * 0.005 * 1.5) << "triangle " << t;
+    if (got.triangle == want.triangle) {
+      EXPECT_EQ(got.barycentric, want.barycentric);
+    }
+  }
+  EXPECT_GT(answered, 10u);
+  EXPECT_GT(declined, 100u);
+}
+
+TEST(ContactWalk, DeclinesAboveTheSurfaceBeyondTheBorderAndPastHalfTheFocalDistance) {
+  // Above the flat grid: the tree decides a probe that left the surface.
+  const auto plane = mesh::make_plane(5, 5, 0.01);
+  const SurfacePoint under = full_query(plane, Vec3(0.001, 0.002, -0.001));
+  ASSERT_NE(walk_surface_point(plane, Vec3(0.001, 0.002, -0.001), under.triangle).triangle, kNoIndex);
+  EXPECT_EQ(walk_surface_point(plane, Vec3(0.001, 0.002, 0.001), under.triangle).triangle, kNoIndex);
+  // Past the border x = 0.02: no triangle to step into.
+  EXPECT_EQ(walk_surface_point(plane, Vec3(0.025, 0.0, -0.001), under.triangle).triangle, kNoIndex);
+  EXPECT_EQ(walk_surface_point(plane, Vec3(0.001, 0.002, -0.001), kNoIndex).triangle, kNoIndex);
+
+  // A sphere with radial normals: |n_a - n_b| = |p_a - p_b| / R on every
+  // edge, so the focal distance is R and the walk answers down to R / 2 deep.
+  const double radius = 0.05;
+  auto m = mesh::make_sphere(5000, radius);
+  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  std::mt19937 rng(9);
+  std::normal_distribution<double> g;
+  for (int i = 0; i < 100; ++i) {
+    const Vec3 dir = Vec3(g(rng), g(rng), g(rng)).normalized();
+    const SurfacePoint start = full_query(m, dir * radius * 0.99);
+    ASSERT_TRUE(start.inside);
+    // The surface point is at |C| <= R along dir (sagitta aside): depth = |C| - |probe|.
+    const double c = start.point.norm();
+    EXPECT_NE(walk_surface_point(m, dir * (c - 0.49 * radius), start.triangle).triangle, kNoIndex) << i;
+    EXPECT_EQ(walk_surface_point(m, dir * (c - 0.51 * radius), start.triangle).triangle, kNoIndex) << i;
+  }
+}
+
+TEST(ContactWalk, QueryContactWalksOnlyInContactAndWithoutJumps) {
+  const double radius = 0.05;
+  const auto m = mesh::make_sphere(20000, radius);
+  const VertexTree tree(m.positions);
+  const Vec3 dir = Vec3(1, 2, 3).normalized();
+  ContactCursor cursor;
+  // First query: the tree, exact nearest vertex.
+  ContactAnswer a = query_contact(m, tree, dir * (radius - 0.001), cursor, true);
+  EXPECT_EQ(a.path, ContactPath::Tree);
+  EXPECT_EQ(a.nearest_vertex, nearest_brute_force(m.positions, dir * (radius - 0.001)).vertex);
+  EXPECT_EQ(cursor.triangle, a.surface.triangle);
+  // In contact, a small move: the walk.
+  const Vec3 moved = (dir + Vec3(0, 0.001, 0)).normalized() * (radius - 0.001);
+  a = query_contact(m, tree, moved, cursor, true);
+  EXPECT_EQ(a.path, ContactPath::Walk);
+  EXPECT_LE((a.surface.point - full_query(m, moved).point).norm(), 1e-12);
+  // Not in contact: the tree, even for a small move.
+  a = query_contact(m, tree, moved, cursor, false);
+  EXPECT_EQ(a.path, ContactPath::Tree);
+  // In contact but jumped 1 cm (beyond the last triangle's longest edge): the tree.
+  const Vec3 far = (dir + Vec3(0.2, 0, 0)).normalized() * (radius - 0.001);
+  a = query_contact(m, tree, far, cursor, true);
+  EXPECT_EQ(a.path, ContactPath::Tree);
+  EXPECT_EQ(a.nearest_vertex, nearest_brute_force(m.positions, far).vertex);
+  // A non-finite probe: no answer, cursor untouched.
+  const ContactCursor before = cursor;
+  a = query_contact(m, tree, Vec3(std::nan(""), 0, 0), cursor, true);
+  EXPECT_EQ(a.path, ContactPath::None);
+  EXPECT_EQ(a.surface.triangle, kNoIndex);
+  EXPECT_EQ(cursor.triangle, before.triangle);
+}
+
 TEST(Contact, BadInputGivesNoTriangle) {
   const auto m = mesh::make_plane(3, 3, 0.01);
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -225,6 +507,22 @@ TEST(HeightCheck, Cases) {
   EXPECT_FALSE(height_check(at(-0.002 + 1e-6, Vec3(0.5, 0.5, 0)), Vec3(-0.001, -0.003, 0.005)).in_contact);
   // A raised surface (h > 0) does not make a probe above the rest surface touch.
   EXPECT_FALSE(height_check(at(0.001), Vec3::Constant(0.002)).in_contact);
+}
+
+TEST(HeightCheck, AnExistingContactHoldsWhileBelowTheRestSurface) {
+  // The surface overshot past the probe (h = -3 mm, probe at -2 mm): a new
+  // contact is refused, an existing one holds.
+  EXPECT_FALSE(height_check(at(-0.002), Vec3::Constant(-0.003), false).in_contact);
+  const HeightCheck held = height_check(at(-0.002), Vec3::Constant(-0.003), true);
+  EXPECT_TRUE(held.in_contact);
+  EXPECT_DOUBLE_EQ(held.depth, 0.002);
+  EXPECT_DOUBLE_EQ(held.surface_height, -0.003);
+  // It still ends once the probe is at or above the undeformed surface.
+  EXPECT_FALSE(height_check(at(0.0), Vec3::Constant(-0.003), true).in_contact);
+  EXPECT_FALSE(height_check(at(0.0005), Vec3::Zero(), true).in_contact);
+  // Below the deformed surface it is a contact either way.
+  EXPECT_TRUE(height_check(at(-0.002), Vec3::Constant(-0.001), true).in_contact);
+  EXPECT_TRUE(height_check(at(-0.002), Vec3::Constant(-0.001), false).in_contact);
 }
 
 }  // namespace

@@ -90,5 +90,19 @@ TEST(ShapeFunction, VolumeConservingIntegratesToZeroOverAPlane) {
   EXPECT_LT(std::abs(total), 1e-10 * pushed);
 }
 
+TEST(ShapeFunction, EvaluateGivesValueAndDerivativeBits) {
+  // evaluate() is what the force fields call: the same bits as the two
+  // separate functions, inside, at and beyond the support, for r < 0 too.
+  for (ShapeKind kind : {ShapeKind::Gaussian, ShapeKind::Wendland, ShapeKind::VolumeConserving}) {
+    const ShapeFunction s{kind, 0.02};
+    for (double r : {0.0, 1e-9, 0.003, 0.0071, 0.0199999, 0.02, 0.03, -0.004}) {
+      double value = -1, slope = -1;
+      s.evaluate(r, value, slope);
+      EXPECT_EQ(value, s.value(r)) << "r " << r;
+      EXPECT_EQ(slope, s.derivative(r)) << "r " << r;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace palpa::deform

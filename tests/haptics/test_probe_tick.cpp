@@ -234,12 +234,16 @@ TEST(HapticTick, StiffnessIsInterpolatedAtTheVirtualVertex) {
   }
 }
 
-TEST(HapticTick, SlidingProbeKeepsItsCursor) {
-  // A probe sliding 2 mm deep along a circle: with memory carried over, every
-  // tick matches the closed form and the nearest vertex is the true nearest.
+TEST(HapticTick, SlidingProbeWalksAndMatchesAFreshTick) {
+  // A probe sliding 2 mm deep along a circle with memory carried over: after
+  // the first tick (tree) the in-contact walk answers, and every tick gives
+  // the same virtual vertex and force as a tick without history (tree +
+  // locate), the closed form k depth, and a nearest vertex that is the
+  // exact one (tree) or the contact triangle's nearest (walk).
   const double k = 400;
   const SphereScene scene(linear(k));
   ProbeMemory memory;
+  int walked = 0;
   for (int i = 0; i < 400; ++i) {
     const double th = i * 1e-3;
     const Vec3 dir(std::cos(th), std::sin(th), 0);
@@ -248,10 +252,70 @@ TEST(HapticTick, SlidingProbeKeepsItsCursor) {
     haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1),
                 ForceParams{}, deform::ShapeFunction{});
     ASSERT_TRUE(out.in_contact);
-    EXPECT_EQ(collision::nearest_brute_force(scene.mesh->positions, in.position).distance_sq,
-              (scene.mesh->positions[out.nearest_vertex] - in.position).squaredNorm());
+    EXPECT_TRUE(memory.in_contact);
+    EXPECT_EQ(out.path, i == 0 ? collision::ContactPath::Tree : collision::ContactPath::Walk) << "tick " << i;
+    walked += out.path == collision::ContactPath::Walk;
+    const ProbeOutput fresh = scene.tick(in);
+    EXPECT_EQ(fresh.path, collision::ContactPath::Tree);
+    EXPECT_LE((out.surface.point - fresh.surface.point).norm(), 1e-15) << "tick " << i;
+    EXPECT_NEAR(out.height.depth, fresh.height.depth, 1e-15) << "tick " << i;
+    EXPECT_LE((out.force - fresh.force).norm(), 1e-12) << "tick " << i;
     EXPECT_NEAR(out.force.dot(dir), k * 0.002, k * scene.sagitta);
+    const auto& tri = scene.mesh->triangles[out.surface.triangle];
+    const double d2 = (scene.mesh->positions[out.nearest_vertex] - in.position).squaredNorm();
+    if (out.path == collision::ContactPath::Tree) {
+      EXPECT_EQ(collision::nearest_brute_force(scene.mesh->positions, in.position).distance_sq, d2);
+    } else {
+      for (Index v : tri) EXPECT_LE(d2, (scene.mesh->positions[v] - in.position).squaredNorm());
+    }
   }
+  EXPECT_EQ(walked, 399);
+}
+
+TEST(HapticTick, ContactHoldsWhileAnUnderdampedSurfaceOvershoots) {
+  // A lightly damped linear material (zeta = 0.035) held 2 mm in by a fixed
+  // probe overshoots past it: the interpolated height goes below the probe.
+  // The hysteretic height check keeps the contact (and its force) on every
+  // tick; a fresh check (no history) would drop it on those ticks.
+  deform::Material mat = linear(500, 0.05);
+  const SphereScene scene(mat);
+  deform::ShapeFunction shape;
+  shape.kind = deform::ShapeKind::Wendland;
+  shape.radius = 0.01;
+  const ProbeInput in{Vec3(0, 0, kRadius - 0.002), Vec3::Zero()};
+  ProbeMemory memory;
+  int overshoot_ticks = 0;
+  for (int i = 0; i < 300; ++i) {
+    ProbeOutput out;
+    haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1),
+                ForceParams{}, shape);
+    ASSERT_TRUE(out.in_contact) << "tick " << i;
+    EXPECT_TRUE(memory.in_contact);
+    EXPECT_GT(out.force.z(), 0.0);
+    if (out.height.surface_height < -out.height.depth) {
+      // The surface is below the probe: only the hysteresis holds the contact.
+      ++overshoot_ticks;
+      EXPECT_FALSE(collision::height_check(out.surface, Vec3::Constant(out.height.surface_height)).in_contact);
+    }
+    const deform::Contact c = out.contact;
+    scene.surface->set_contacts(std::span(&c, 1));
+    scene.surface->step(1e-3);
+  }
+  EXPECT_GT(overshoot_ticks, 20);
+  // Withdrawn above the surface, the contact ends and memory forgets it.
+  const ProbeInput out_in{Vec3(0, 0, kRadius + 0.001), Vec3::Zero()};
+  ProbeOutput out;
+  haptic_tick(*scene.surface, *scene.tree, std::span(&out_in, 1), std::span(&memory, 1), std::span(&out, 1),
+              ForceParams{}, shape);
+  EXPECT_FALSE(out.in_contact);
+  EXPECT_FALSE(memory.in_contact);
+  EXPECT_EQ(out.force, Vec3::Zero());
+  // Back in, with the surface still below the probe: a new contact needs the
+  // probe at or below the deformed surface, so none until it goes deeper.
+  ProbeOutput again;
+  haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&memory, 1), std::span(&again, 1),
+              ForceParams{}, shape);
+  EXPECT_EQ(again.in_contact, -again.height.depth <= again.height.surface_height);
 }
 
 TEST(HapticTick, DoesNotAllocate) {

@@ -92,6 +92,31 @@ TEST(Adjacency, MatchesBruteForceOnSphere) {
     EXPECT_EQ(std::vector<Index>(r.begin(), r.end()), std::vector<Index>(nb[v].begin(), nb[v].end()));
     EXPECT_EQ(std::vector<Index>(t.begin(), t.end()), std::vector<Index>(tris[v].begin(), tris[v].end()));
   }
+  // Triangle neighbours: across each edge, the other triangle holding both ends.
+  ASSERT_EQ(m.triangle_neighbors.size(), m.triangle_count());
+  for (Index t = 0; t < m.triangle_count(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const Index a = m.triangles[t][(k + 1) % 3], b = m.triangles[t][(k + 2) % 3];
+      std::vector<Index> across;
+      for (Index s = 0; s < m.triangle_count(); ++s)
+        if (s != t && tris[a].count(s) && tris[b].count(s)) across.push_back(s);
+      ASSERT_EQ(across.size(), 1u);  // closed manifold
+      EXPECT_EQ(m.triangle_neighbors[t][k], across[0]);
+    }
+}
+
+TEST(Adjacency, TriangleNeighborsOnBordersAndNonManifoldEdges) {
+  // Three triangles on the edge (0, 1) (non-manifold) and a border elsewhere.
+  SurfaceMesh m;
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, -1, 0), Vec3(0, 0, 1), Vec3(1, 1, 0)};
+  m.triangles = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}, {1, 5, 2}};
+  build_adjacency(m);
+  ASSERT_EQ(m.triangle_neighbors.size(), 4u);
+  // Triangle 0: edge (1, 2) opposite corner 0 borders triangle 3; edge (2, 0)
+  // is a border; edge (0, 1) has three triangles.
+  EXPECT_EQ(m.triangle_neighbors[0], (Triangle{3, kNoIndex, kNoIndex}));
+  EXPECT_EQ(m.triangle_neighbors[1], (Triangle{kNoIndex, kNoIndex, kNoIndex}));
+  EXPECT_EQ(m.triangle_neighbors[3], (Triangle{kNoIndex, 0, kNoIndex}));
 }
 
 TEST(Analyse, CornerTetrahedron) {
