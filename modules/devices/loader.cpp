@@ -1,0 +1,161 @@
+#include "devices/loader.h"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <set>
+#include <system_error>
+
+#ifndef PALPA_DEFAULT_PLUGIN_DIR
+#define PALPA_DEFAULT_PLUGIN_DIR ""
+#endif
+
+namespace palpa::devices {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::string_view kPrefix = "libpalpa_device_";
+constexpr std::string_view kSuffix = ".so";
+
+// Splits $PALPA_PLUGIN_PATH at ':' (empty entries ignored).
+std::vector<fs::path> env_dirs() {
+  std::vector<fs::path> out;
+  const char* env = std::getenv("PALPA_PLUGIN_PATH");
+  if (env == nullptr) return out;
+  std::string s = env;
+  std::size_t start = 0;
+  while (start <= s.size()) {
+    std::size_t end = s.find(':', start);
+    if (end == std::string::npos) end = s.size();
+    if (end > start) out.emplace_back(s.substr(start, end - start));
+    start = end + 1;
+  }
+  return out;
+}
+
+// <dir of the running executable>/../lib/palpa/plugins (installed layout).
+fs::path installed_dir() {
+  std::error_code ec;
+  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return {};
+  return exe.parent_path().parent_path() / "lib" / "palpa" / "plugins";
+}
+
+bool valid_name(std::string_view name) {
+  if (name.empty() || name.size() > 64) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
+}
+
+// Resolves one entry point; missing required ones are an error naming the symbol.
+template <class Fn>
+Fn symbol(void* lib, const char* name, const fs::path& path, bool required) {
+  dlerror();
+  void* p = dlsym(lib, name);
+  if (p == nullptr && required)
+    throw DeviceError("device plugin '" + path.string() + "' lacks the entry point " + name);
+  return reinterpret_cast<Fn>(p);
+}
+
+}  // namespace
+
+PluginLoader::PluginLoader() : PluginLoader(std::vector<fs::path>{}) {}
+
+// Search order: $PALPA_PLUGIN_PATH, extra dirs, build tree, installed layout.
+PluginLoader::PluginLoader(std::vector<fs::path> extra_dirs) {
+  dirs_ = env_dirs();
+  for (auto& d : extra_dirs) dirs_.push_back(std::move(d));
+  if (std::strlen(PALPA_DEFAULT_PLUGIN_DIR) > 0) dirs_.emplace_back(PALPA_DEFAULT_PLUGIN_DIR);
+  if (fs::path inst = installed_dir(); !inst.empty()) dirs_.push_back(inst);
+}
+
+std::string PluginLoader::file_name(std::string_view name) {
+  return std::string(kPrefix) + std::string(name) + std::string(kSuffix);
+}
+
+Plugin PluginLoader::load(std::string_view name) const {
+  if (!valid_name(name))
+    throw DeviceError("invalid device plugin name '" + std::string(name) + "': use letters, digits, '_' and '-'");
+  // First directory holding the file wins.
+  const std::string file = file_name(name);
+  for (const auto& dir : dirs_) {
+    std::error_code ec;
+    const fs::path candidate = dir / file;
+    if (fs::is_regular_file(candidate, ec)) {
+      Plugin p = load_file(candidate);
+      p.name_ = std::string(name);
+      return p;
+    }
+  }
+  std::string list;
+  for (const auto& dir : dirs_) list += (list.empty() ? "" : ", ") + dir.string();
+  if (list.empty()) list = "(empty search path)";
+  throw DeviceError("unknown device plugin '" + std::string(name) + "': no " + file + " in " + list);
+}
+
+Plugin PluginLoader::load_file(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw DeviceError("device plugin file '" + path.string() + "' does not exist");
+
+  // Load with all symbols resolved now, kept private to this plugin.
+  dlerror();
+  void* lib = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (lib == nullptr) {
+    const char* why = dlerror();
+    throw DeviceError("cannot load device plugin '" + path.string() + "': " + (why ? why : "unknown reason"));
+  }
+  std::shared_ptr<void> handle(lib, [](void* h) { dlclose(h); });
+
+  // The version check comes first: other entry points of another version
+  // may have other signatures.
+  PluginApi api;
+  api.interface = symbol<palpa_device_interface_fn>(lib, "palpa_device_interface", path, true);
+  const char* theirs = api.interface();
+  const std::string their_version = theirs ? theirs : "(null)";
+  if (their_version != PALPA_DEVICE_INTERFACE)
+    throw DeviceError("device plugin '" + path.string() + "' implements interface " + their_version +
+                      ", but this program needs " + PALPA_DEVICE_INTERFACE);
+
+  api.create = symbol<palpa_device_create_fn>(lib, "palpa_device_create", path, true);
+  api.destroy = symbol<palpa_device_destroy_fn>(lib, "palpa_device_destroy", path, true);
+  api.spec = symbol<palpa_device_spec_fn>(lib, "palpa_device_spec", path, true);
+  api.start = symbol<palpa_device_start_fn>(lib, "palpa_device_start", path, true);
+  api.stop = symbol<palpa_device_stop_fn>(lib, "palpa_device_stop", path, true);
+  api.read = symbol<palpa_device_read_fn>(lib, "palpa_device_read", path, true);
+  api.write = symbol<palpa_device_write_fn>(lib, "palpa_device_write", path, true);
+  api.message = symbol<palpa_device_message_fn>(lib, "palpa_device_message", path, true);
+  api.feed = symbol<palpa_device_feed_fn>(lib, "palpa_device_feed", path, false);
+
+  Plugin p;
+  p.name_ = path.stem().string();
+  if (p.name_.rfind(kPrefix, 0) == 0) p.name_ = p.name_.substr(kPrefix.size());
+  p.path_ = path;
+  p.library_ = std::move(handle);
+  p.api_ = api;
+  return p;
+}
+
+std::vector<std::string> PluginLoader::available() const {
+  std::set<std::string> names;
+  for (const auto& dir : dirs_) {
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+      const std::string f = it->path().filename().string();
+      if (f.size() > kPrefix.size() + kSuffix.size() && f.rfind(kPrefix, 0) == 0 &&
+          f.compare(f.size() - kSuffix.size(), kSuffix.size(), kSuffix) == 0)
+        names.insert(f.substr(kPrefix.size(), f.size() - kPrefix.size() - kSuffix.size()));
+    }
+  }
+  return {names.begin(), names.end()};
+}
+
+Device Plugin::create(const std::string& options) const {
+  return Device(library_, api_, options, name_);
+}
+
+}  // namespace palpa::devices

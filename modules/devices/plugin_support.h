@@ -1,0 +1,266 @@
+#pragma once
+// Helpers for writing a device plugin in C++: a base class with one virtual
+// per entry point, the option parser with clear messages, and the macro that
+// exports the extern "C" entry points of plugin_api.h for a class. Header
+// only, so a plugin links nothing of the host.
+
+#include "devices/plugin_api.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace palpa::devices::plugin {
+
+/// Seconds on CLOCK_MONOTONIC (the clock of every sample and command).
+/// Real-time safe (vDSO, no system call on Linux).
+inline double monotonic_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Copies `text` into a C buffer, always NUL-terminated (truncated if needed).
+inline void copy_message(std::string_view text, char* buf, std::size_t size) {
+  if (buf == nullptr || size == 0) return;
+  const std::size_t n = std::min(text.size(), size - 1);
+  std::memcpy(buf, text.data(), n);
+  buf[n] = '\0';
+}
+
+/// A sample with no reading yet: identity orientation, status 0.
+inline PalpaDeviceSample empty_sample() {
+  PalpaDeviceSample s{};
+  s.orientation[0] = 1.0;
+  return s;
+}
+
+/// Bad options or a failed start: the message names the plugin and the problem.
+class PluginError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The "key=value" options given to palpa_device_create(), separated by ';'
+/// or newlines; blanks around keys and values are ignored.
+class Options {
+ public:
+  /// Parses `text` (may be null). `plugin` prefixes every message.
+  /// Throws PluginError for an entry without '=' or a repeated key.
+  Options(const char* text, std::string plugin) : plugin_(std::move(plugin)) {
+    std::string s = text ? text : "";
+    std::size_t start = 0;
+    while (start <= s.size()) {
+      std::size_t end = s.find_first_of(";\n", start);
+      if (end == std::string::npos) end = s.size();
+      std::string entry = trim(s.substr(start, end - start));
+      start = end + 1;
+      if (entry.empty()) continue;
+      const auto eq = entry.find('=');
+      if (eq == std::string::npos)
+        throw PluginError(plugin_ + ": option '" + entry + "' is not of the form key=value");
+      std::string key = trim(entry.substr(0, eq));
+      std::string value = trim(entry.substr(eq + 1));
+      if (key.empty()) throw PluginError(plugin_ + ": option '" + entry + "' has no key");
+      if (values_.count(key)) throw PluginError(plugin_ + ": option '" + key + "' is given twice");
+      values_[key] = value;
+    }
+  }
+
+  /// Throws PluginError naming the first key not in `known`.
+  void check_known(const std::vector<std::string>& known) const {
+    for (const auto& [key, value] : values_) {
+      if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      throw PluginError(plugin_ + ": unknown option '" + key + "' (known options: " + list + ")");
+    }
+  }
+
+  bool has(const std::string& key) const { return values_.count(key) != 0; }
+
+  std::string get_string(const std::string& key, const std::string& fallback = "") const {
+    auto it = values_.find(key);
+    return it == values_.end() ? fallback : it->second;
+  }
+
+  /// A finite number within [lo, hi]; throws PluginError otherwise.
+  double get_double(const std::string& key, double fallback, double lo, double hi) const {
+    auto it = values_.find(key);
+    if (it == values_.end()) return fallback;
+    const char* str = it->second.c_str();
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(str, &end);
+    if (end == str || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+      throw PluginError(plugin_ + ": option " + key + "='" + it->second + "' is not a number");
+    if (v < lo || v > hi)
+      throw PluginError(plugin_ + ": option " + key + "=" + it->second + " is outside [" + format(lo) + ", " +
+                        format(hi) + "]");
+    return v;
+  }
+
+  /// An integer within [lo, hi]; throws PluginError otherwise.
+  long get_int(const std::string& key, long fallback, long lo, long hi) const {
+    auto it = values_.find(key);
+    if (it == values_.end()) return fallback;
+    const char* str = it->second.c_str();
+    char* end = nullptr;
+    errno = 0;
+    const long v = std::strtol(str, &end, 0);
+    if (end == str || *end != '\0' || errno == ERANGE)
+      throw PluginError(plugin_ + ": option " + key + "='" + it->second + "' is not an integer");
+    if (v < lo || v > hi)
+      throw PluginError(plugin_ + ": option " + key + "=" + it->second + " is outside [" + std::to_string(lo) +
+                        ", " + std::to_string(hi) + "]");
+    return v;
+  }
+
+  /// true/false, yes/no, on/off, 1/0.
+  bool get_bool(const std::string& key, bool fallback) const {
+    auto it = values_.find(key);
+    if (it == values_.end()) return fallback;
+    const std::string& v = it->second;
+    if (v == "1" || v == "true" || v == "yes" || v == "on") return true;
+    if (v == "0" || v == "false" || v == "no" || v == "off") return false;
+    throw PluginError(plugin_ + ": option " + key + "='" + v + "' is not a boolean (use true or false)");
+  }
+
+  const std::string& plugin() const { return plugin_; }
+
+ private:
+  static std::string trim(const std::string& s) {
+    const auto b = s.find_first_not_of(" \t\r");
+    if (b == std::string::npos) return "";
+    const auto e = s.find_last_not_of(" \t\r");
+    return s.substr(b, e - b + 1);
+  }
+  static std::string format(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+  }
+
+  std::string plugin_;
+  std::map<std::string, std::string> values_;
+};
+
+/// One plugin instance. Subclasses implement the entry points; the real-time
+/// ones (read, write, feed) must not allocate, lock, block or throw.
+class DeviceImpl {
+ public:
+  virtual ~DeviceImpl() = default;
+  virtual PalpaDeviceSpec spec() const = 0;
+  /// Throws PluginError (message shown to the user) when the device cannot start.
+  virtual void start() = 0;
+  virtual void stop() = 0;
+  virtual void read(PalpaDeviceSample& sample) noexcept = 0;
+  /// Default: no force output.
+  virtual int write(const PalpaForceCommand&) noexcept { return PALPA_DEVICE_UNSUPPORTED; }
+  virtual std::string message() const = 0;
+  /// Default: not host-fed.
+  virtual int feed(const PalpaDeviceSample&) noexcept { return PALPA_DEVICE_UNSUPPORTED; }
+};
+
+/// Fills a spec's name safely.
+inline void set_spec_name(PalpaDeviceSpec& spec, std::string_view name) {
+  copy_message(name, spec.name, sizeof spec.name);
+}
+
+}  // namespace palpa::devices::plugin
+
+/// The opaque instance handed to the host.
+struct PalpaDevice {
+  std::unique_ptr<palpa::devices::plugin::DeviceImpl> impl;
+};
+
+/// Exports the required entry points for a plugin whose instances are made by
+/// `FACTORY(const palpa::devices::plugin::Options&)` returning
+/// std::unique_ptr<DeviceImpl>; NAME prefixes messages. Exceptions never
+/// cross the C boundary.
+#define PALPA_EXPORT_DEVICE_PLUGIN(NAME, FACTORY)                                                     \
+  extern "C" __attribute__((visibility("default"))) const char* palpa_device_interface(void) {       \
+    return PALPA_DEVICE_INTERFACE;                                                                    \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) PalpaDevice* palpa_device_create(                \
+      const char* options, char* error, size_t error_size) {                                          \
+    try {                                                                                             \
+      palpa::devices::plugin::Options opts(options, NAME);                                            \
+      auto dev = std::make_unique<PalpaDevice>();                                                     \
+      dev->impl = FACTORY(opts);                                                                      \
+      return dev.release();                                                                           \
+    } catch (const std::exception& e) {                                                               \
+      palpa::devices::plugin::copy_message(e.what(), error, error_size);                              \
+    } catch (...) {                                                                                   \
+      palpa::devices::plugin::copy_message(NAME ": unknown error while creating the device", error,   \
+                                           error_size);                                               \
+    }                                                                                                 \
+    return nullptr;                                                                                   \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) void palpa_device_destroy(PalpaDevice* d) {       \
+    if (d == nullptr) return;                                                                         \
+    try {                                                                                             \
+      d->impl->stop();                                                                                \
+    } catch (...) {                                                                                   \
+    }                                                                                                 \
+    delete d;                                                                                         \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) int palpa_device_spec(PalpaDevice* d,             \
+                                                                          PalpaDeviceSpec* s) {       \
+    if (d == nullptr || s == nullptr) return PALPA_DEVICE_FAILED;                                     \
+    *s = d->impl->spec();                                                                             \
+    return PALPA_DEVICE_OK;                                                                           \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) int palpa_device_start(PalpaDevice* d, char* error, \
+                                                                           size_t error_size) {       \
+    try {                                                                                             \
+      d->impl->start();                                                                               \
+      return PALPA_DEVICE_OK;                                                                         \
+    } catch (const std::exception& e) {                                                               \
+      palpa::devices::plugin::copy_message(e.what(), error, error_size);                              \
+    } catch (...) {                                                                                   \
+      palpa::devices::plugin::copy_message(NAME ": unknown error while starting", error, error_size); \
+    }                                                                                                 \
+    return PALPA_DEVICE_FAILED;                                                                       \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) void palpa_device_stop(PalpaDevice* d) {          \
+    try {                                                                                             \
+      d->impl->stop();                                                                                \
+    } catch (...) {                                                                                   \
+    }                                                                                                 \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) int palpa_device_read(PalpaDevice* d,             \
+                                                                          PalpaDeviceSample* s) {     \
+    d->impl->read(*s);                                                                                \
+    return PALPA_DEVICE_OK;                                                                           \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) int palpa_device_write(PalpaDevice* d,            \
+                                                                           const PalpaForceCommand* c) { \
+    return d->impl->write(*c);                                                                        \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) int palpa_device_message(PalpaDevice* d, char* buf, \
+                                                                             size_t size) {           \
+    try {                                                                                             \
+      palpa::devices::plugin::copy_message(d->impl->message(), buf, size);                            \
+    } catch (...) {                                                                                   \
+      palpa::devices::plugin::copy_message(NAME ": status unavailable", buf, size);                   \
+    }                                                                                                 \
+    return PALPA_DEVICE_OK;                                                                           \
+  }
+
+/// Additionally exports palpa_device_feed (host-fed devices only).
+#define PALPA_EXPORT_DEVICE_FEED()                                                                  \
+  extern "C" __attribute__((visibility("default"))) int palpa_device_feed(PalpaDevice* d,            \
+                                                                          const PalpaDeviceSample* s) { \
+    return d->impl->feed(*s);                                                                       \
+  }

@@ -1,0 +1,233 @@
+#include "haptics/loop_core.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+namespace palpa::haptics {
+
+namespace {
+
+std::string number(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+void require_range(const char* field, double v, double lo, double hi) {
+  if (!(std::isfinite(v) && v >= lo && v <= hi))
+    throw std::invalid_argument(std::string("loop configuration: ") + field + " must be in [" + number(lo) + ", " +
+                                number(hi) + "], got " + number(v));
+}
+
+bool finite3(const double* p) { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
+
+}  // namespace
+
+// Ranges chosen so that every accepted value keeps the loop well defined.
+void CoreConfig::validate() const {
+  require_range("rate_hz", rate_hz, 100, 10000);
+  if (deform_rate_hz != 0) require_range("deform_rate_hz", deform_rate_hz, 1, 10000);
+  require_range("watchdog_periods", watchdog_periods, 1.5, 1000);
+  require_range("model_timeout_periods", model_timeout_periods, 1.5, 1e6);
+  require_range("velocity_cutoff_hz", velocity_cutoff_hz, 0.1, 1e5);
+  require_range("force.friction", force.friction, 0, 10);
+  require_range("force.slip_speed", force.slip_speed, 1e-9, 10);
+  require_range("force.max_force", force.max_force, 1e-6, 1e4);
+  require_range("shape.radius", shape.radius, 1e-6, 10);
+  const auto k = static_cast<int>(shape.kind);
+  if (k < 0 || k > 2) throw std::invalid_argument("loop configuration: shape.kind is not a known shape function");
+}
+
+void to_contacts(const ContactSet& set, std::vector<deform::Contact>& out) {
+  out.resize(std::min<std::size_t>(set.count, kMaxProbes));
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const ContactRecord& r = set.contacts[i];
+    out[i].point = to_vec(r.point);
+    out[i].normal = to_vec(r.normal);
+    out[i].vertex = r.vertex;
+    out[i].depth = r.depth;
+    out[i].shape = r.shape;
+  }
+}
+
+LoopCore::LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& mesh, const CoreConfig& config,
+                   std::vector<ProbeSetup> probes)
+    : tree_(tree), config_(config), setups_(std::move(probes)) {
+  config_.validate();
+  if (setups_.empty()) throw std::invalid_argument("loop configuration: no probes");
+  if (setups_.size() > kMaxProbes)
+    throw std::invalid_argument("loop configuration: " + std::to_string(setups_.size()) + " probes, at most " +
+                                std::to_string(kMaxProbes) + " are supported");
+  if (mesh.vertex_count() == 0) throw std::invalid_argument("loop configuration: the surface has no vertices");
+
+  // Resolve each probe's force limit from its device and check everything.
+  for (auto& s : setups_) {
+    s.mapping.validate(s.name);
+    if (s.spec.force_dof > 0) {
+      if (!(std::isfinite(s.spec.max_force) && s.spec.max_force > 0))
+        throw std::invalid_argument("device " + s.name + " declares force output but no valid max_force");
+      if (s.safety.max_force == 0) s.safety.max_force = s.spec.max_force;
+      s.safety.max_force = std::min(s.safety.max_force, s.spec.max_force);
+    } else if (s.safety.max_force == 0) {
+      s.safety.max_force = config_.force.max_force;  // no output; the value only has to be valid
+    }
+    s.safety.validate(s.name);
+    safety_.emplace_back(s.safety, config_.period());
+    ProbeState st;
+    st.mapping = ClutchedMapping(s.mapping);
+    state_.push_back(st);
+  }
+  memory_.resize(setups_.size());
+  probe_inputs_.resize(setups_.size());
+  probe_outputs_.resize(setups_.size());
+
+  // Positions farther than `margin` from the surface's box cannot touch it:
+  // they are clamped onto the enlarged box so that collision never sees an
+  // absurd (huge) coordinate.
+  Vec3 lo = mesh.positions[0], hi = mesh.positions[0];
+  for (const auto& p : mesh.positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const double margin = std::max({1.0, (hi - lo).norm(), 4.0 * config_.shape.radius});
+  range_lo_ = lo - Vec3::Constant(margin);
+  range_hi_ = hi + Vec3::Constant(margin);
+  parking_ = range_hi_;
+}
+
+void LoopCore::apply(const LoopCommand& c, double t) noexcept {
+  if (c.probe >= setups_.size()) return;
+  auto& st = state_[c.probe];
+  switch (c.kind) {
+    case LoopCommandKind::Enable: safety_[c.probe].enable(t); break;
+    case LoopCommandKind::Disable: safety_[c.probe].disable(); break;
+    case LoopCommandKind::ClutchOn: st.clutch_command = true; break;
+    case LoopCommandKind::ClutchOff: st.clutch_command = false; break;
+    case LoopCommandKind::SetMapping: st.mapping.set_mapping(c.mapping); break;
+  }
+}
+
+void LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
+                    std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
+                    ContactSet& contacts) noexcept {
+  const std::size_t n = setups_.size();
+  const double period = config_.period();
+
+  // Watchdogs: the loop itself late, or the deformation model too old.
+  std::uint32_t common = 0;
+  if (have_last_tick_ && !(t - last_tick_time_ <= config_.watchdog_periods * period)) common |= kSafetyLoopLate;
+  if (config_.deform_rate_hz > 0 && !(t - model_time <= config_.model_timeout_periods / config_.deform_rate_hz))
+    common |= kSafetyModelLate;
+  last_tick_time_ = t;
+  have_last_tick_ = true;
+
+  // Per probe: check the sample, map it, estimate the velocity.
+  std::array<std::uint32_t, kMaxProbes> cond{};
+  for (std::size_t i = 0; i < n; ++i) {
+    const PalpaDeviceSample& s = inputs[i].sample;
+    ProbeState& st = state_[i];
+    std::uint32_t c = common;
+    if (!inputs[i].read_ok || (s.status & PALPA_STATUS_FAULT)) c |= kSafetyDeviceFault;
+    if ((s.status & PALPA_STATUS_NOT_READY) || !(s.status & PALPA_STATUS_VALID)) c |= kSafetyNotReady;
+    if (s.status & PALPA_STATUS_STALE) c |= kSafetyStale;
+
+    const bool finite_input = finite3(s.position);
+    if (!finite_input) c |= kSafetyBadInput;
+    const int button = st.mapping.mapping().clutch_button;
+    const bool clutch = st.clutch_command || (button >= 0 && ((s.buttons >> button) & 1u));
+    Vec3 world = st.mapping.update(Vec3(s.position[0], s.position[1], s.position[2]), clutch);
+    if (st.mapping.engaged()) c |= kSafetyClutch;
+    if (!world.allFinite()) {
+      c |= kSafetyBadInput;
+    } else {
+      world = world.cwiseMax(range_lo_).cwiseMin(range_hi_);
+    }
+
+    const bool usable = !(c & (kSafetyBadInput | kSafetyDeviceFault | kSafetyNotReady));
+    if (usable) {
+      // A jump farther than max_jump within one tick is a glitch, not a motion.
+      if (st.have_world && !((world - st.world).norm() <= safety_[i].limits().max_jump)) {
+        c |= kSafetyJump;
+        st.velocity.setZero();
+        st.have_sample = false;
+      }
+      // Velocity from consecutive new samples, low-pass filtered.
+      if (s.sequence != st.last_sequence || !st.have_sample) {
+        const double dts = s.time - st.last_sample_time;
+        if (st.have_sample && std::isfinite(dts) && dts > 0) {
+          const Vec3 raw = (world - st.last_sample_world) / dts;
+          const double tau = 1.0 / (2.0 * std::numbers::pi * config_.velocity_cutoff_hz);
+          const double alpha = dts / (dts + tau);
+          if (raw.allFinite()) st.velocity += alpha * (raw - st.velocity);
+        }
+        st.last_sequence = s.sequence;
+        st.last_sample_time = s.time;
+        st.last_sample_world = world;
+        st.have_sample = std::isfinite(s.time);
+      }
+      if (!st.velocity.allFinite()) st.velocity.setZero();
+      st.world = world;
+      st.have_world = true;
+    }
+    cond[i] = c;
+    probe_inputs_[i].position = st.have_world ? st.world : parking_;
+    probe_inputs_[i].velocity = st.velocity;
+  }
+
+  // Collision and eq. (4) force for every probe (section III.C, III.E).
+  haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), n),
+              std::span<ProbeMemory>(memory_.data(), n), std::span<ProbeOutput>(probe_outputs_.data(), n),
+              config_.force, config_.shape);
+
+  // Safety per device, results, and the contacts for the deformation model.
+  contacts.tick = tick;
+  contacts.count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const ProbeOutput& out = probe_outputs_[i];
+    ProbeState& st = state_[i];
+    ProbeTickResult& r = results[i];
+    const std::uint32_t c = cond[i];
+    const bool input_ok = !(c & (kSafetyBadInput | kSafetyDeviceFault | kSafetyNotReady | kSafetyStale | kSafetyJump));
+    const bool touching = input_ok && out.in_contact;
+    const auto& mapping = st.mapping.mapping();
+
+    r.sample = inputs[i].sample;
+    r.world = to_triple(probe_inputs_[i].position);
+    r.velocity = to_triple(st.velocity);
+    if (setups_[i].spec.force_dof > 0) {
+      std::uint32_t flags = 0;
+      const Vec3 device = safety_[i].apply(mapping.force_to_device(out.force), c, t, flags);
+      r.force_device = to_triple(device);
+      r.force_world = to_triple(mapping.force_to_world(device));
+      r.flags = flags;
+    } else {
+      // No force output: show the model's (already clamped) force.
+      const Vec3 f = out.force.allFinite() && touching ? out.force : Vec3::Zero();
+      r.force_device = {0, 0, 0};
+      r.force_world = to_triple(f);
+      r.flags = c;
+    }
+    r.in_contact = touching ? 1 : 0;
+    r.contact_point = to_triple(out.surface.point);
+    r.contact_normal = to_triple(out.surface.normal);
+    r.depth = out.height.depth;
+    r.normal_reaction = std::isfinite(out.normal_reaction) ? out.normal_reaction : 0.0;
+    r.enabled = safety_[i].enabled() ? 1 : 0;
+    r.clutched = st.mapping.engaged() ? 1 : 0;
+    r.fault = static_cast<std::uint8_t>(safety_[i].fault());
+
+    if (touching && contacts.count < kMaxProbes) {
+      ContactRecord& cr = contacts.contacts[contacts.count++];
+      cr.point = to_triple(out.contact.point);
+      cr.normal = to_triple(out.contact.normal);
+      cr.vertex = out.contact.vertex;
+      cr.depth = out.contact.depth;
+      cr.shape = out.contact.shape;
+    }
+  }
+}
+
+}  // namespace palpa::haptics

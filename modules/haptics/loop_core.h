@@ -1,0 +1,172 @@
+#pragma once
+// The deterministic part of the haptic loop: what one tick does with the
+// device samples it read (mapping, clutch, velocity estimate, input checks,
+// collision and eq. (4) force for every probe, the safety filter, the
+// contacts for the deformation model). The real-time thread (loop.h) and the
+// replay of a recorded session (loop_replay.h) run exactly this code, so a
+// session replays bit for bit from its recorded inputs.
+//
+// Everything here is plain data or preallocated: tick() does no allocation,
+// locking, I/O or exception.
+
+#include "collision/vertex_tree.h"
+#include "deform/surface.h"
+#include "devices/plugin_api.h"
+#include "haptics/device_mapping.h"
+#include "haptics/force.h"
+#include "haptics/probe_tick.h"
+#include "haptics/safety.h"
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace palpa::haptics {
+
+/// Most probes one loop drives.
+inline constexpr std::size_t kMaxProbes = 8;
+
+/// A 3-vector as plain data (for records and lock-free exchange).
+using Triple = std::array<double, 3>;
+inline Triple to_triple(const Vec3& v) { return {v[0], v[1], v[2]}; }
+inline Vec3 to_vec(const Triple& t) { return {t[0], t[1], t[2]}; }
+
+/// Timing and model parameters shared by the live loop and the replay.
+struct CoreConfig {
+  double rate_hz = 1000;               ///< haptic tick rate, Hz (100 .. 10000)
+  double deform_rate_hz = 500;         ///< deformation integration rate, Hz (0: no deformation)
+  double watchdog_periods = 3;         ///< a tick starting later than this many periods after the previous is "loop late"
+  double model_timeout_periods = 10;   ///< a model older than this many deformation periods is "model late"
+  double velocity_cutoff_hz = 50;      ///< low-pass cutoff of the finite-difference probe velocity, Hz
+  ForceParams force;                   ///< eq. (4) parameters (force.max_force also clamps the model force)
+  deform::ShapeFunction shape;         ///< shape function of the contacts
+
+  /// Throws std::invalid_argument naming the bad field, e.g.
+  /// "loop configuration: rate_hz must be in [100, 10000], got 50000".
+  void validate() const;
+  double period() const { return 1.0 / rate_hz; }
+};
+
+/// One probe: its device's specification, mapping and safety limits.
+struct ProbeSetup {
+  std::string name;          ///< for messages ("falcon", "left hand")
+  PalpaDeviceSpec spec{};    ///< the device's specification
+  DeviceMapping mapping;
+  SafetyLimits safety;       ///< max_force 0: use the device's spec.max_force
+};
+
+/// A command from another thread, applied at the start of a tick.
+enum class LoopCommandKind : std::uint8_t {
+  Enable = 0,      ///< enable force output with a ramp-in; clears a latched fault
+  Disable = 1,
+  ClutchOn = 2,    ///< engage the clutch (as if the clutch button were held)
+  ClutchOff = 3,
+  SetMapping = 4,  ///< replace the mapping (validated before it is queued)
+};
+
+struct LoopCommand {
+  LoopCommandKind kind = LoopCommandKind::Disable;
+  std::uint32_t probe = 0;
+  DeviceMapping mapping;   ///< SetMapping only
+};
+
+/// What one tick read from one device.
+struct ProbeTickInput {
+  PalpaDeviceSample sample{};
+  bool read_ok = true;       ///< false when the plugin's read failed
+};
+
+/// What one tick did for one probe (plain data: recorded and shown).
+struct ProbeTickResult {
+  PalpaDeviceSample sample{};   ///< as read
+  Triple world{};               ///< probe position, world frame, m
+  Triple velocity{};            ///< estimated probe velocity, m/s
+  Triple force_world{};         ///< force on the probe after safety, world frame, N
+  Triple force_device{};        ///< the command sent, device frame, N
+  Triple contact_point{};       ///< virtual vertex on the undeformed surface (when in contact), m
+  Triple contact_normal{};      ///< its interpolated normal
+  double depth = 0;             ///< penetration below the undeformed surface, m
+  double normal_reaction = 0;   ///< Fn of eq. (4) before any clamp, N
+  std::uint32_t flags = 0;      ///< SafetyFlag bits
+  std::uint8_t in_contact = 0;
+  std::uint8_t enabled = 0;
+  std::uint8_t clutched = 0;
+  std::uint8_t fault = 0;       ///< SafetyFault
+};
+
+/// A contact as plain data, for the deformation thread.
+struct ContactRecord {
+  Triple point{};
+  Triple normal{0, 0, 1};
+  Index vertex = kNoIndex;
+  double depth = 0;
+  deform::ShapeFunction shape;
+};
+
+/// ContactSet::tick of the empty set the deformation thread sees before the
+/// first tick has published contacts.
+inline constexpr std::uint64_t kNoContactsTick = ~std::uint64_t{0};
+
+/// The contacts of one tick.
+struct ContactSet {
+  std::uint64_t tick = kNoContactsTick;
+  std::uint32_t count = 0;
+  std::array<ContactRecord, kMaxProbes> contacts{};
+};
+
+/// Converts a contact set for DeformableSurface::set_contacts.
+void to_contacts(const ContactSet& set, std::vector<deform::Contact>& out);
+
+class LoopCore {
+ public:
+  /// `tree` and `mesh` must outlive the core. Throws std::invalid_argument
+  /// for a bad configuration, too many probes or bad mappings/limits.
+  LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& mesh, const CoreConfig& config,
+           std::vector<ProbeSetup> probes);
+
+  std::size_t probe_count() const { return setups_.size(); }
+  const CoreConfig& config() const { return config_; }
+  const std::vector<ProbeSetup>& setups() const { return setups_; }
+  /// The limits actually applied to probe i (max_force resolved from the spec).
+  const SafetyLimits& limits(std::size_t i) const { return safety_[i].limits(); }
+
+  /// Applies a command at time t (s). Out-of-range probes are ignored.
+  void apply(const LoopCommand& command, double t) noexcept;
+
+  /// One tick at time t (s) against `surface` (the model generation in use,
+  /// published at model_time, s). `inputs` and `results` hold probe_count()
+  /// entries; `contacts` receives the contacts for the deformation model.
+  void tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
+            std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
+            ContactSet& contacts) noexcept;
+
+ private:
+  struct ProbeState {
+    ClutchedMapping mapping;
+    bool clutch_command = false;
+    bool have_world = false;
+    Vec3 world = Vec3::Zero();          // last valid probe position, m
+    Vec3 velocity = Vec3::Zero();       // filtered, m/s
+    std::uint64_t last_sequence = 0;
+    double last_sample_time = 0;
+    Vec3 last_sample_world = Vec3::Zero();
+    bool have_sample = false;
+  };
+
+  const collision::VertexTree& tree_;
+  CoreConfig config_;
+  std::vector<ProbeSetup> setups_;
+  std::vector<SafetyFilter> safety_;
+  std::vector<ProbeState> state_;
+  std::vector<ProbeMemory> memory_;
+  std::vector<ProbeInput> probe_inputs_;
+  std::vector<ProbeOutput> probe_outputs_;
+  Vec3 range_lo_, range_hi_;   // positions outside are clamped onto this box (no contact possible)
+  Vec3 parking_;               // where a probe with no valid position yet is placed (far from the surface)
+  double last_tick_time_ = 0;
+  bool have_last_tick_ = false;
+};
+
+}  // namespace palpa::haptics

@@ -1,0 +1,387 @@
+// The `igtl` device: a network bridge speaking OpenIGTLink (protocol version
+// 2, as used by 3D Slicer and PLUS), so that a device driven by a vendor SDK
+// on another computer can be used. It receives the tool pose as TRANSFORM or
+// POSITION messages and sends the computed force back as a SENSOR message of
+// three values with unit newton. Input older than stale_after is reported
+// stale (the loop then sends zero force) and the force sent back is zero
+// while the input is stale or the loop's command has expired.
+//
+// Sockets are our own (so a server can bind to one address, e.g. loopback);
+// OpenIGTLink's library packs and unpacks the messages.
+//
+// Options:
+//   mode=client        client: connect to host:port; server: listen on host:port
+//   host=127.0.0.1     peer address (client) or bind address (server)
+//   port=18944         TCP port (0 with mode=server: any free port, see the message)
+//   device=            accept poses only from this OpenIGTLink device name (empty: any)
+//   unit=mm            length unit of incoming positions: mm (OpenIGTLink convention) or m
+//   stale_after=0.1    s
+//   force_name=PalpaForce  device name of the SENSOR messages sent back
+//   send_rate=1000     most SENSOR messages per second, Hz
+//   max_force=10       N, the force limit declared to the host
+
+#include "devices/plugin_support.h"
+#include "haptics/triple_buffer.h"
+
+#include <Eigen/Geometry>
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <igtlMessageHeader.h>
+#include <igtlPositionMessage.h>
+#include <igtlSensorMessage.h>
+#include <igtlTransformMessage.h>
+#include <igtlUnit.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstring>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using namespace palpa::devices::plugin;
+
+constexpr std::size_t kHeaderSize = 58;          // OpenIGTLink header
+constexpr std::size_t kMaxBody = 1u << 20;       // larger bodies are refused
+
+class IgtlDevice final : public DeviceImpl {
+ public:
+  explicit IgtlDevice(const Options& o) {
+    o.check_known({"mode", "host", "port", "device", "unit", "stale_after", "force_name", "send_rate", "max_force"});
+    const std::string mode = o.get_string("mode", "client");
+    if (mode != "client" && mode != "server")
+      throw PluginError("igtl: option mode='" + mode + "' must be client or server");
+    server_ = mode == "server";
+    host_ = o.get_string("host", "127.0.0.1");
+    in_addr probe{};
+    if (inet_pton(AF_INET, host_.c_str(), &probe) != 1)
+      throw PluginError("igtl: option host='" + host_ + "' is not an IPv4 address");
+    port_ = static_cast<int>(o.get_int("port", 18944, server_ ? 0 : 1, 65535));
+    device_filter_ = o.get_string("device");
+    const std::string unit = o.get_string("unit", "mm");
+    if (unit != "mm" && unit != "m") throw PluginError("igtl: option unit='" + unit + "' must be mm or m");
+    unit_scale_ = unit == "mm" ? 1e-3 : 1.0;
+    stale_after_ = o.get_double("stale_after", 0.1, 1e-3, 60.0);
+    force_name_ = o.get_string("force_name", "PalpaForce");
+    if (force_name_.empty() || force_name_.size() > 20)
+      throw PluginError("igtl: option force_name must have 1 to 20 characters");
+    send_period_ = 1.0 / o.get_double("send_rate", 1000.0, 1.0, 100000.0);
+    max_force_ = o.get_double("max_force", 10.0, 0.01, 1e4);
+  }
+  ~IgtlDevice() override { stop(); }
+
+  PalpaDeviceSpec spec() const override {
+    PalpaDeviceSpec s{};
+    set_spec_name(s, "OpenIGTLink bridge");
+    s.position_dof = 6;
+    s.force_dof = 3;
+    for (int i = 0; i < 3; ++i) {
+      s.workspace_min[i] = -1.0;
+      s.workspace_max[i] = 1.0;
+    }
+    s.max_force = max_force_;
+    s.max_stiffness = 1e4;
+    s.max_damping = 100;
+    s.nominal_rate = 1.0 / send_period_;
+    s.button_count = 0;
+    return s;
+  }
+
+  // A server binds now (errors are immediate); a client connects in the background.
+  void start() override {
+    if (running_.load()) return;
+    if (server_) {
+      listen_fd_ = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+      if (listen_fd_ < 0) throw PluginError(std::string("igtl: cannot create a socket: ") + std::strerror(errno));
+      int one = 1;
+      setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+      sockaddr_in a = address(host_, port_);
+      if (bind(listen_fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 || listen(listen_fd_, 1) != 0) {
+        const std::string why = std::strerror(errno);
+        ::close(listen_fd_);
+        listen_fd_ = -1;
+        throw PluginError("igtl: cannot listen on " + host_ + ":" + std::to_string(port_) + ": " + why);
+      }
+      socklen_t len = sizeof a;
+      getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&a), &len);
+      bound_port_ = ntohs(a.sin_port);
+    }
+    PalpaForceCommand zero{};
+    commands_.write(zero);
+    samples_.write(empty_sample());
+    set_state(server_ ? "igtl: listening on " + host_ + ":" + std::to_string(bound_port_)
+                      : "igtl: connecting to " + host_ + ":" + std::to_string(port_));
+    stop_.store(false);
+    running_.store(true);
+    thread_ = std::thread([this] { io_main(); });
+  }
+
+  void stop() override {
+    if (!running_.load()) return;
+    stop_.store(true);
+    if (thread_.joinable()) thread_.join();
+    if (listen_fd_ >= 0) ::close(listen_fd_);
+    listen_fd_ = -1;
+    running_.store(false);
+  }
+
+  // Real-time: the latest pose; stale once older than stale_after.
+  void read(PalpaDeviceSample& s) noexcept override {
+    if (!running_.load(std::memory_order_acquire)) {
+      s = empty_sample();
+      return;
+    }
+    s = samples_.latest();
+    if ((s.status & PALPA_STATUS_VALID) && !(monotonic_now() - s.time <= stale_after_)) s.status |= PALPA_STATUS_STALE;
+  }
+
+  int write(const PalpaForceCommand& c) noexcept override {
+    commands_.write(c);
+    return PALPA_DEVICE_OK;
+  }
+
+  std::string message() const override {
+    std::lock_guard<std::mutex> lock(message_mutex_);
+    return running_.load() ? state_ : "igtl: stopped";
+  }
+
+ private:
+  static sockaddr_in address(const std::string& host, int port) {
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<std::uint16_t>(port));
+    inet_pton(AF_INET, host.c_str(), &a.sin_addr);
+    return a;
+  }
+
+  void set_state(const std::string& s) {
+    std::lock_guard<std::mutex> lock(message_mutex_);
+    state_ = s;
+  }
+
+  // Client: one connection attempt with a short timeout; -1 on failure.
+  int try_connect() {
+    const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+    if (fd < 0) return -1;
+    sockaddr_in a = address(host_, port_);
+    if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 && errno != EINPROGRESS) {
+      ::close(fd);
+      return -1;
+    }
+    pollfd p{fd, POLLOUT, 0};
+    int err = 0;
+    socklen_t len = sizeof err;
+    if (poll(&p, 1, 200) != 1 || getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len) != 0 || err != 0) {
+      ::close(fd);
+      return -1;
+    }
+    return fd;
+  }
+
+  // Server: wait briefly for a peer; -1 when none came.
+  int try_accept() {
+    pollfd p{listen_fd_, POLLIN, 0};
+    if (poll(&p, 1, 100) != 1) return -1;
+    const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+    return fd;
+  }
+
+  bool send_all(int fd, const void* data, std::size_t size) {
+    const auto* p = static_cast<const std::uint8_t*>(data);
+    while (size > 0) {
+      const ssize_t n = ::send(fd, p, size, MSG_NOSIGNAL);
+      if (n > 0) {
+        p += n;
+        size -= static_cast<std::size_t>(n);
+        continue;
+      }
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+        pollfd q{fd, POLLOUT, 0};
+        if (poll(&q, 1, 100) == 1) continue;
+      }
+      return false;
+    }
+    return true;
+  }
+
+  // A SENSOR message with the force in newtons.
+  bool send_force(int fd, const double f[3]) {
+    igtl::SensorMessage::Pointer msg = igtl::SensorMessage::New();
+    msg->SetDeviceName(force_name_.c_str());
+    msg->SetLength(3);
+    igtl::Unit::Pointer unit = igtl::Unit::New();
+    unit->Init();
+    unit->SetPrefix(igtl::Unit::SI_PREFIX_NONE);
+    unit->Append(igtl::Unit::SI_DERIVED_NEWTON, 1);
+    msg->SetUnit(unit.GetPointer());
+    for (unsigned i = 0; i < 3; ++i) msg->SetValue(i, f[i]);
+    msg->Pack();
+    return send_all(fd, msg->GetPackPointer(), static_cast<std::size_t>(msg->GetPackSize()));
+  }
+
+  // Publishes a pose (m, unit quaternion w x y z).
+  void publish(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+    PalpaDeviceSample s = empty_sample();
+    for (int i = 0; i < 3; ++i) s.position[i] = p[i];
+    s.orientation[0] = q.w();
+    s.orientation[1] = q.x();
+    s.orientation[2] = q.y();
+    s.orientation[3] = q.z();
+    s.time = monotonic_now();
+    s.sequence = ++sequence_;
+    s.status = PALPA_STATUS_VALID;
+    samples_.write(s);
+    ++poses_;
+    last_pose_time_ = s.time;
+  }
+
+  // Handles one complete message; false when the peer sent garbage.
+  bool handle(igtl::MessageHeader* header, const std::vector<std::uint8_t>& body) {
+    const std::string type = header->GetDeviceType();
+    const std::string name = header->GetDeviceName();
+    if (!device_filter_.empty() && name != device_filter_) return true;
+    if (type == "TRANSFORM") {
+      igtl::TransformMessage::Pointer m = igtl::TransformMessage::New();
+      m->SetMessageHeader(header);
+      m->AllocatePack();
+      if (static_cast<std::size_t>(m->GetPackBodySize()) != body.size()) return false;
+      std::memcpy(m->GetPackBodyPointer(), body.data(), body.size());
+      if (!(m->Unpack(1) & igtl::MessageHeader::UNPACK_BODY)) return false;
+      igtl::Matrix4x4 t;
+      m->GetMatrix(t);
+      Eigen::Matrix3d r;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) r(i, j) = t[i][j];
+      const Eigen::Vector3d p(t[0][3] * unit_scale_, t[1][3] * unit_scale_, t[2][3] * unit_scale_);
+      if (!p.allFinite() || !r.allFinite()) return false;
+      Eigen::Quaterniond q(r);
+      q.normalize();
+      publish(p, q);
+      return true;
+    }
+    if (type == "POSITION") {
+      igtl::PositionMessage::Pointer m = igtl::PositionMessage::New();
+      m->SetMessageHeader(header);
+      m->AllocatePack();
+      if (static_cast<std::size_t>(m->GetPackBodySize()) != body.size()) return false;
+      std::memcpy(m->GetPackBodyPointer(), body.data(), body.size());
+      if (!(m->Unpack(1) & igtl::MessageHeader::UNPACK_BODY)) return false;
+      float pos[3], quat[4];
+      m->GetPosition(pos);
+      m->GetQuaternion(quat);  // ox, oy, oz, w
+      const Eigen::Vector3d p(pos[0] * unit_scale_, pos[1] * unit_scale_, pos[2] * unit_scale_);
+      Eigen::Quaterniond q(quat[3], quat[0], quat[1], quat[2]);
+      if (!p.allFinite() || !q.coeffs().allFinite()) return false;
+      if (q.norm() > 0) q.normalize(); else q = Eigen::Quaterniond::Identity();
+      publish(p, q);
+      return true;
+    }
+    return true;  // other message types are ignored
+  }
+
+  // Connection management, message parsing and force sending.
+  void io_main() {
+    int fd = -1;
+    std::vector<std::uint8_t> in;
+    double last_send = 0;
+    igtl::MessageHeader::Pointer header = igtl::MessageHeader::New();
+    while (!stop_.load(std::memory_order_relaxed)) {
+      if (fd < 0) {
+        fd = server_ ? try_accept() : try_connect();
+        if (fd < 0) {
+          if (!server_) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+          continue;
+        }
+        int one = 1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        in.clear();
+        set_state("igtl: connected to a peer on " + host_ + ":" + std::to_string(server_ ? bound_port_ : port_));
+      }
+
+      // Receive what is there (wait at most 1 ms).
+      pollfd p{fd, POLLIN, 0};
+      bool lost = false;
+      if (poll(&p, 1, 1) == 1) {
+        std::uint8_t buf[4096];
+        const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+        if (n > 0)
+          in.insert(in.end(), buf, buf + n);
+        else if (n == 0 || (errno != EAGAIN && errno != EINTR))
+          lost = true;
+      }
+
+      // Complete messages: header, then body.
+      while (!lost && in.size() >= kHeaderSize) {
+        header->InitPack();
+        std::memcpy(header->GetPackPointer(), in.data(), kHeaderSize);
+        header->Unpack();
+        const auto body = static_cast<std::size_t>(header->GetBodySizeToRead());
+        if (body > kMaxBody) {
+          set_state("igtl: refused a message with a body of " + std::to_string(body) +
+                    " bytes; disconnected from the peer");
+          lost = true;
+          break;
+        }
+        if (in.size() < kHeaderSize + body) break;
+        const std::vector<std::uint8_t> payload(in.begin() + kHeaderSize, in.begin() + kHeaderSize + body);
+        in.erase(in.begin(), in.begin() + static_cast<std::ptrdiff_t>(kHeaderSize + body));
+        if (!handle(header.GetPointer(), payload)) {
+          ++bad_messages_;
+          set_state("igtl: received a malformed " + std::string(header->GetDeviceType()) + " message (" +
+                    std::to_string(bad_messages_) + " so far)");
+        }
+      }
+
+      // Send the force back, zero when the input is stale or the command expired.
+      const double now = monotonic_now();
+      if (!lost && now - last_send >= send_period_) {
+        const PalpaForceCommand c = commands_.latest();
+        double f[3] = {0, 0, 0};
+        const bool fresh = now <= c.time + c.expires_after && poses_ > 0 && now - last_pose_time_ <= stale_after_;
+        if (fresh)
+          for (int i = 0; i < 3; ++i) f[i] = std::isfinite(c.force[i]) ? c.force[i] : 0.0;
+        if (!send_force(fd, f)) lost = true;
+        last_send = now;
+      }
+
+      if (lost) {
+        ::close(fd);
+        fd = -1;
+        set_state(server_ ? "igtl: peer disconnected; listening on " + host_ + ":" + std::to_string(bound_port_)
+                          : "igtl: peer disconnected; reconnecting to " + host_ + ":" + std::to_string(port_));
+      }
+    }
+    if (fd >= 0) {
+      const double zero[3] = {0, 0, 0};
+      send_force(fd, zero);
+      ::close(fd);
+    }
+  }
+
+  bool server_ = false;
+  std::string host_;
+  int port_ = 18944, bound_port_ = 0;
+  std::string device_filter_, force_name_;
+  double unit_scale_ = 1e-3, stale_after_ = 0.1, send_period_ = 1e-3, max_force_ = 10;
+  int listen_fd_ = -1;
+  std::thread thread_;
+  std::atomic<bool> stop_{false}, running_{false};
+  palpa::haptics::TripleBuffer<PalpaForceCommand> commands_;
+  palpa::haptics::TripleBuffer<PalpaDeviceSample> samples_;
+  std::uint64_t sequence_ = 0, poses_ = 0, bad_messages_ = 0;  // I/O thread only
+  double last_pose_time_ = 0;                                    // I/O thread only
+  mutable std::mutex message_mutex_;
+  std::string state_;
+};
+
+std::unique_ptr<DeviceImpl> make_igtl(const Options& o) { return std::make_unique<IgtlDevice>(o); }
+
+}  // namespace
+
+PALPA_EXPORT_DEVICE_PLUGIN("igtl", make_igtl)

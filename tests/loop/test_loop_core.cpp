@@ -1,0 +1,247 @@
+// One tick of the loop against closed forms: a probe pressed into a flat
+// linear-spring surface feels k * depth along the normal, through any
+// mapping; every watchdog and input check withholds the force.
+
+#include "haptics/loop_core.h"
+#include "mesh/generate.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+namespace palpa::haptics {
+namespace {
+
+constexpr double kStiffness = 500.0;  // N/m
+constexpr double kPeriod = 1e-3;
+
+class LoopCoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    mesh_ = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(41, 41, 1e-3));
+    deform::Material m;
+    m.stiffness = kStiffness;
+    m.damping = 1.0;
+    surface_ = std::make_unique<deform::DeformableSurface>(mesh_, deform::MaterialArrays::uniform(mesh_->vertex_count(), m));
+    tree_ = std::make_unique<collision::VertexTree>(std::span<const Vec3>(mesh_->positions));
+    config_.rate_hz = 1000;
+    config_.deform_rate_hz = 0;
+  }
+
+  ProbeSetup setup(int force_dof = 3) const {
+    ProbeSetup s;
+    s.name = "test";
+    s.spec.position_dof = 3;
+    s.spec.force_dof = force_dof;
+    s.spec.max_force = 5.0;
+    s.safety.max_force_rate = 1e9;
+    s.safety.ramp_time = 0;
+    return s;
+  }
+
+  std::unique_ptr<LoopCore> make(std::vector<ProbeSetup> s) {
+    auto core = std::make_unique<LoopCore>(*tree_, *mesh_, config_, std::move(s));
+    for (std::size_t i = 0; i < core->probe_count(); ++i) core->apply({LoopCommandKind::Enable, std::uint32_t(i), {}}, 0);
+    return core;
+  }
+
+  // One tick with the device at `p`.
+  ProbeTickResult tick(LoopCore& core, const Vec3& p, std::uint32_t status = PALPA_STATUS_VALID,
+                       std::uint32_t buttons = 0, bool read_ok = true, double model_time = 0) {
+    ProbeTickInput in;
+    in.sample.orientation[0] = 1;
+    for (int k = 0; k < 3; ++k) in.sample.position[k] = p[k];
+    in.sample.status = status;
+    in.sample.buttons = buttons;
+    in.sample.sequence = ++seq_;
+    in.sample.time = t_;
+    in.read_ok = read_ok;
+    ProbeTickResult r;
+    core.tick(seq_, t_, *surface_, model_time, std::span<const ProbeTickInput>(&in, 1),
+              std::span<ProbeTickResult>(&r, 1), contacts_);
+    t_ += kPeriod;
+    return r;
+  }
+
+  std::shared_ptr<mesh::SurfaceMesh> mesh_;
+  std::unique_ptr<deform::DeformableSurface> surface_;
+  std::unique_ptr<collision::VertexTree> tree_;
+  CoreConfig config_;
+  ContactSet contacts_;
+  double t_ = 1.0;
+  std::uint64_t seq_ = 0;
+};
+
+TEST_F(LoopCoreTest, PressingAtRestGivesStiffnessTimesDepth) {
+  auto core = make({setup()});
+  tick(*core, Vec3(0.0003, -0.0002, 0.01));  // above: no contact
+  ProbeTickResult r;
+  for (int i = 0; i < 3; ++i) r = tick(*core, Vec3(0.0003, -0.0002, -0.004));
+  EXPECT_TRUE(r.in_contact);
+  EXPECT_NEAR(r.depth, 0.004, 1e-12);
+  // The probe just arrived, so its velocity estimate is not zero yet: wait.
+  for (int i = 0; i < 500; ++i) r = tick(*core, Vec3(0.0003, -0.0002, -0.004));
+  EXPECT_NEAR(r.force_device[2], kStiffness * 0.004, 1e-6);
+  EXPECT_NEAR(r.force_device[0], 0.0, 1e-6);
+  EXPECT_NEAR(r.force_device[1], 0.0, 1e-6);
+  ASSERT_EQ(contacts_.count, 1u);
+  EXPECT_NEAR(contacts_.contacts[0].depth, 0.004, 1e-12);
+  EXPECT_NEAR(contacts_.contacts[0].point[0], 0.0003, 1e-12);
+  EXPECT_NEAR(contacts_.contacts[0].point[2], 0.0, 1e-12);
+}
+
+TEST_F(LoopCoreTest, MappingTransformsPositionsAndForces) {
+  ProbeSetup s = setup();
+  s.mapping.scale = 2.0;
+  s.mapping.axes = AxisMap::parse("x,-z,y");
+  auto core = make({s});
+  // World (0.001, 0.002, -0.003) = 2 * (dx, -dz, dy).
+  const Vec3 device(0.0005, -0.0015, -0.001);
+  ProbeTickResult r;
+  for (int i = 0; i < 500; ++i) r = tick(*core, device);
+  EXPECT_NEAR(r.world[0], 0.001, 1e-15);
+  EXPECT_NEAR(r.world[1], 0.002, 1e-15);
+  EXPECT_NEAR(r.world[2], -0.003, 1e-15);
+  // World force (0, 0, 1.5) is device force (0, 1.5, 0).
+  EXPECT_NEAR(r.force_world[2], 1.5, 1e-6);
+  EXPECT_NEAR(r.force_device[1], 1.5, 1e-6);
+  EXPECT_NEAR(r.force_device[2], 0.0, 1e-6);
+}
+
+TEST_F(LoopCoreTest, FrictionOpposesSlidingWithCoefficientK) {
+  auto core = make({setup()});
+  // Slide along +x at 0.05 m/s, 4 mm deep: Fn = k d = 2 N (the velocity has no
+  // normal part), friction -K Fn along x.
+  ProbeTickResult r;
+  for (int i = 0; i < 400; ++i) r = tick(*core, Vec3(-0.01 + 0.05 * i * kPeriod, 0, -0.004));
+  EXPECT_NEAR(r.velocity[0], 0.05, 1e-6);
+  EXPECT_NEAR(r.force_device[2], 2.0, 1e-6);
+  EXPECT_NEAR(r.force_device[0], -config_.force.friction * 2.0, 1e-6);
+}
+
+TEST_F(LoopCoreTest, ClutchButtonHoldsTheProbeAndWithholdsForce) {
+  ProbeSetup s = setup();
+  s.mapping.clutch_button = 1;
+  auto core = make({s});
+  ProbeTickResult r;
+  for (int i = 0; i < 300; ++i) r = tick(*core, Vec3(0, 0, -0.002));
+  EXPECT_GT(r.force_device[2], 0.9);
+  // Pressed where the probe is, then the device moves away.
+  r = tick(*core, Vec3(0, 0, -0.002), PALPA_STATUS_VALID, 0b10);
+  EXPECT_TRUE(r.flags & kSafetyClutch);
+  r = tick(*core, Vec3(0.01, 0, -0.002), PALPA_STATUS_VALID, 0b10);
+  EXPECT_TRUE(r.flags & kSafetyClutch);
+  EXPECT_EQ(r.world, (Triple{0, 0, -0.002}));
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  ASSERT_EQ(contacts_.count, 1u);  // the probe still presses the organ
+}
+
+TEST_F(LoopCoreTest, LoopLateWatchdogWithholdsOneTick) {
+  auto core = make({setup()});
+  ProbeTickResult r;
+  for (int i = 0; i < 300; ++i) r = tick(*core, Vec3(0, 0, -0.002));
+  ASSERT_GT(r.force_device[2], 0.9);
+  t_ += 5 * kPeriod;  // the next tick starts 6 periods after the previous
+  r = tick(*core, Vec3(0, 0, -0.002));
+  EXPECT_TRUE(r.flags & kSafetyLoopLate);
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  r = tick(*core, Vec3(0, 0, -0.002));
+  EXPECT_FALSE(r.flags & kSafetyLoopLate);
+  EXPECT_GT(r.force_device[2], 0.9);
+}
+
+TEST_F(LoopCoreTest, ModelLateWatchdog) {
+  config_.deform_rate_hz = 500;  // timeout 10 periods = 20 ms
+  auto core = make({setup()});
+  ProbeTickResult r;
+  for (int i = 0; i < 300; ++i) r = tick(*core, Vec3(0, 0, -0.002), PALPA_STATUS_VALID, 0, true, t_ - 0.019);
+  EXPECT_FALSE(r.flags & kSafetyModelLate);
+  EXPECT_GT(r.force_device[2], 0.9);
+  r = tick(*core, Vec3(0, 0, -0.002), PALPA_STATUS_VALID, 0, true, t_ - 0.021);
+  EXPECT_TRUE(r.flags & kSafetyModelLate);
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+}
+
+TEST_F(LoopCoreTest, DeviceStatesWithholdForceAndFaultsLatch) {
+  auto core = make({setup()});
+  ProbeTickResult r;
+  for (int i = 0; i < 300; ++i) r = tick(*core, Vec3(0, 0, -0.002));
+  ASSERT_GT(r.force_device[2], 0.9);
+  r = tick(*core, Vec3(0, 0, -0.002), PALPA_STATUS_VALID | PALPA_STATUS_NOT_READY);
+  EXPECT_TRUE(r.flags & kSafetyNotReady);
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  r = tick(*core, Vec3(0, 0, -0.002), PALPA_STATUS_VALID | PALPA_STATUS_STALE);
+  EXPECT_TRUE(r.flags & kSafetyStale);
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  r = tick(*core, Vec3(0, 0, -0.002));
+  EXPECT_GT(r.force_device[2], 0.9);  // not latched
+
+  r = tick(*core, Vec3(0, 0, -0.002), PALPA_STATUS_VALID | PALPA_STATUS_FAULT);
+  EXPECT_TRUE(r.flags & kSafetyDeviceFault);
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  EXPECT_EQ(r.fault, static_cast<std::uint8_t>(SafetyFault::Device));
+  for (int i = 0; i < 10; ++i) r = tick(*core, Vec3(0, 0, -0.002));
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));  // latched
+  EXPECT_TRUE(r.flags & kSafetyFaultLatched);
+  core->apply({LoopCommandKind::Enable, 0, {}}, t_);
+  r = tick(*core, Vec3(0, 0, -0.002));
+  EXPECT_GT(r.force_device[2], 0.9);
+
+  r = tick(*core, Vec3(0, 0, -0.002), PALPA_STATUS_VALID, 0, /*read_ok=*/false);
+  EXPECT_EQ(r.fault, static_cast<std::uint8_t>(SafetyFault::Device));
+}
+
+TEST_F(LoopCoreTest, InvalidAndAbsurdPositions) {
+  auto core = make({setup()});
+  ProbeTickResult r;
+  for (int i = 0; i < 300; ++i) r = tick(*core, Vec3(0, 0, -0.002));
+  r = tick(*core, Vec3(NAN, 0, -0.002));
+  EXPECT_TRUE(r.flags & kSafetyBadInput);
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  EXPECT_EQ(contacts_.count, 0u);
+  // A teleport is a jump: zero force for that tick.
+  r = tick(*core, Vec3(0.06, 0.0, -0.002));
+  EXPECT_TRUE(r.flags & kSafetyJump);
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  // Finite but absurd: no contact possible, no crash, zero force.
+  for (double big : {1e3, 1e30, 1e300, -1e300}) {
+    r = tick(*core, Vec3(big, big, big));
+    EXPECT_FALSE(r.in_contact);
+    EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+    for (double w : r.world) EXPECT_TRUE(std::isfinite(w));
+  }
+}
+
+TEST_F(LoopCoreTest, DeviceWithoutForceOutputShowsTheModelForce) {
+  auto core = make({setup(/*force_dof=*/0)});
+  ProbeTickResult r;
+  for (int i = 0; i < 300; ++i) r = tick(*core, Vec3(0, 0, -0.002));
+  EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));
+  EXPECT_NEAR(r.force_world[2], 1.0, 1e-6);
+}
+
+TEST_F(LoopCoreTest, ConfigurationErrorsNameTheField) {
+  auto message = [&](CoreConfig c) {
+    try {
+      LoopCore core(*tree_, *mesh_, c, {setup()});
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  CoreConfig c = config_;
+  c.rate_hz = 50000;
+  EXPECT_EQ(message(c), "loop configuration: rate_hz must be in [100, 10000], got 50000");
+  c = config_;
+  c.force.max_force = NAN;
+  EXPECT_EQ(message(c), "loop configuration: force.max_force must be in [1e-06, 10000], got nan");
+  c = config_;
+  c.deform_rate_hz = -3;
+  EXPECT_EQ(message(c), "loop configuration: deform_rate_hz must be in [1, 10000], got -3");
+  EXPECT_THROW(LoopCore(*tree_, *mesh_, config_, std::vector<ProbeSetup>(kMaxProbes + 1, setup())),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace palpa::haptics

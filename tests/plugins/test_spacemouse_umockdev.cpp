@@ -1,0 +1,162 @@
+// The real `spacemouse` plugin reading an emulated SpaceNavigator through
+// unmodified hidapi: the sysfs chain and report descriptor come from
+// fixtures/spacemouse.umockdev, the timed reports from
+// fixtures/spacemouse.script, and the hidraw ioctls are answered here. An
+// unplug at the end must give a latched fault.
+
+#include "devices/loader.h"
+#include "umockdev_support.h"
+
+#include <gtest/gtest.h>
+
+#include <linux/hidraw.h>
+#include <sys/ioctl.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <thread>
+#include <vector>
+
+namespace palpa {
+namespace {
+
+using namespace std::chrono_literals;
+
+const char* kHidraw = "/dev/hidraw3";
+const char* kHidrawSys = "/sys/devices/pci0000:00/0000:00:14.0/usb1/1-3/1-3:1.0/0003:046D:C626.0002/hidraw/hidraw3";
+const char* kHidSys = "/sys/devices/pci0000:00/0000:00:14.0/usb1/1-3/1-3:1.0/0003:046D:C626.0002";
+
+// What the kernel's hidraw driver answers, from the fixture's sysfs data.
+struct HidrawAnswers {
+  std::vector<std::uint8_t> descriptor;
+  int ioctls = 0;
+};
+
+gboolean on_hidraw_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer user) {
+  auto* a = static_cast<HidrawAnswers*>(user);
+  const gulong request = umockdev_ioctl_client_get_request(client);
+  UMockdevIoctlData* arg = umockdev_ioctl_client_get_arg(client);
+  GError* error = nullptr;
+  ++a->ioctls;
+  if (request == HIDIOCGRDESCSIZE) {
+    UMockdevIoctlData* d = umockdev_ioctl_data_resolve(arg, 0, sizeof(int), &error);
+    int size = static_cast<int>(a->descriptor.size());
+    umockdev_ioctl_data_update(d, 0, reinterpret_cast<guint8*>(&size), sizeof size);
+    umockdev_ioctl_client_complete(client, 0, 0);
+    g_object_unref(d);
+    return TRUE;
+  }
+  if (request == HIDIOCGRDESC) {
+    UMockdevIoctlData* d = umockdev_ioctl_data_resolve(arg, 0, sizeof(hidraw_report_descriptor), &error);
+    hidraw_report_descriptor r{};
+    r.size = static_cast<__u32>(a->descriptor.size());
+    std::memcpy(r.value, a->descriptor.data(), a->descriptor.size());
+    umockdev_ioctl_data_update(d, 0, reinterpret_cast<guint8*>(&r), sizeof r);
+    umockdev_ioctl_client_complete(client, 0, 0);
+    g_object_unref(d);
+    return TRUE;
+  }
+  if (request == HIDIOCGRAWINFO) {
+    UMockdevIoctlData* d = umockdev_ioctl_data_resolve(arg, 0, sizeof(hidraw_devinfo), &error);
+    hidraw_devinfo info{};
+    info.bustype = 3;  // BUS_USB
+    info.vendor = 0x046d;
+    info.product = static_cast<__s16>(0xc626);
+    umockdev_ioctl_data_update(d, 0, reinterpret_cast<guint8*>(&info), sizeof info);
+    umockdev_ioctl_client_complete(client, 0, 0);
+    g_object_unref(d);
+    return TRUE;
+  }
+  umockdev_ioctl_client_complete(client, -1, ENOTTY);
+  return TRUE;
+}
+
+class SpaceMouseEmulated : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!test::umockdev_preloaded()) GTEST_FAIL() << test::kNeedsUmockdevWrapper;
+    bed_ = std::make_unique<test::Testbed>();
+    bed_->add_from_file(test::fixture_dir() / "spacemouse.umockdev");
+    // The report descriptor the hidraw ioctls return is the fixture's sysfs one.
+    std::ifstream f(std::string(umockdev_testbed_get_root_dir(bed_->get())) + kHidSys + "/report_descriptor",
+                    std::ios::binary);
+    answers_.descriptor.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+    ASSERT_GT(answers_.descriptor.size(), 20u);
+    handler_ = umockdev_ioctl_base_new();
+    g_signal_connect(handler_, "handle-ioctl", G_CALLBACK(on_hidraw_ioctl), &answers_);
+  }
+  void TearDown() override {
+    bed_.reset();
+    if (handler_) g_object_unref(handler_);
+  }
+  std::unique_ptr<test::Testbed> bed_;
+  UMockdevIoctlBase* handler_ = nullptr;
+  HidrawAnswers answers_;
+};
+
+TEST_F(SpaceMouseEmulated, ScriptedReportsMoveTheProbeAndUnplugLatchesAFault) {
+  bed_->load_script(kHidraw, test::fixture_dir() / "spacemouse.script");
+  bed_->attach_ioctl(kHidraw, handler_);
+  const auto t0 = std::chrono::steady_clock::now();
+  devices::Device d =
+      devices::PluginLoader({PALPA_PLUGIN_DIR}).load("spacemouse").create("speed=0.1;deadzone=0.05;workspace=0.2");
+  d.start();  // finds the emulated device by enumeration
+  EXPECT_EQ(d.message(), std::string("spacemouse: running on ") + kHidraw);
+  EXPECT_GT(answers_.ioctls, 0);  // hidapi asked for the report descriptor
+
+  // Follow the script (about 1.07 s), reading like the haptic loop does.
+  PalpaDeviceSample s{};
+  double max_x = 0;
+  bool button_seen = false;
+  while (std::chrono::steady_clock::now() - t0 < 1400ms) {
+    ASSERT_TRUE(d.read(s));
+    ASSERT_EQ(s.status, PALPA_STATUS_VALID);
+    max_x = std::max(max_x, s.position[0]);
+    button_seen |= (s.buttons & 1u) != 0;
+    std::this_thread::sleep_for(2ms);
+  }
+  // Full right deflection for 0.3 s at 0.1 m/s, then a 0.2 s pull toward
+  // the user (HID -TY: device z decreases), the twist moves nothing.
+  EXPECT_NEAR(s.position[0], 0.1 * 0.3, 0.008);
+  EXPECT_NEAR(max_x, s.position[0], 1e-12);
+  EXPECT_NEAR(s.position[1], 0.0, 1e-12);
+  EXPECT_NEAR(s.position[2], -0.1 * 0.2, 0.008);
+  EXPECT_TRUE(button_seen);
+  EXPECT_EQ(s.buttons, 0u);  // released again
+
+  // Unplug: the node hangs up and the device disappears.
+  const PalpaDeviceSample before = s;
+  bed_->hang_up(kHidraw);
+  bed_->remove_device(kHidrawSys);
+  const auto t1 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t1 < 500ms && !(s.status & PALPA_STATUS_FAULT)) {
+    d.read(s);
+    std::this_thread::sleep_for(2ms);
+  }
+  EXPECT_EQ(s.status, PALPA_STATUS_FAULT);
+  EXPECT_EQ(s.position[0], before.position[0]);  // the probe does not move
+  const std::string m = d.message();
+  EXPECT_EQ(m.rfind(std::string("spacemouse: reading ") + kHidraw + " failed (", 0), 0u) << m;
+  EXPECT_NE(m.find("unplugged? restart the device"), std::string::npos) << m;
+  std::this_thread::sleep_for(50ms);
+  d.read(s);
+  EXPECT_EQ(s.status, PALPA_STATUS_FAULT);  // latched
+}
+
+TEST_F(SpaceMouseEmulated, NoDeviceGivesAClearMessage) {
+  bed_->remove_device(kHidrawSys);
+  devices::Device d = devices::PluginLoader({PALPA_PLUGIN_DIR}).load("spacemouse").create("");
+  try {
+    d.start();
+    FAIL();
+  } catch (const devices::DeviceError& e) {
+    EXPECT_STREQ(e.what(),
+                 "spacemouse: no 3Dconnexion device found (vendor 046d or 256f); is it plugged in and is "
+                 "/dev/hidraw* readable?");
+  }
+}
+
+}  // namespace
+}  // namespace palpa
