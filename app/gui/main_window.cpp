@@ -10,8 +10,11 @@
 
 #include <QAction>
 #include <QApplication>
+#include <QCheckBox>
 #include <QCloseEvent>
 #include <QComboBox>
+#include <QDialog>
+#include <QDialogButtonBox>
 #include <QDockWidget>
 #include <QDoubleSpinBox>
 #include <QDragEnterEvent>
@@ -26,8 +29,11 @@
 #include <QMenuBar>
 #include <QMimeData>
 #include <QMouseEvent>
+#include <QLineEdit>
 #include <QPushButton>
 #include <QSettings>
+#include <QSpinBox>
+#include <QStackedWidget>
 #include <QStatusBar>
 #include <QSurfaceFormat>
 #include <QVBoxLayout>
@@ -51,7 +57,6 @@ VTK_MODULE_INIT(vtkInteractionStyle);
 namespace palpa::app {
 namespace {
 
-constexpr double kHapticDt = 1e-3;        // s, one haptic tick
 constexpr double kDepthPerPixel = 5e-5;   // m of indentation per pixel of downward drag
 constexpr double kDepthPerWheelStep = 5e-4;  // m per wheel notch while pressing
 constexpr int kMaxRecent = 8;
@@ -86,7 +91,8 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
   load_settings();
   open_default_organ();
 
-  // Frame timer: the simulation catches up with the wall clock each frame.
+  // Frame timer: the haptic loop runs on its own threads; each frame reads
+  // its state and draws.
   clock_.start();
   connect(&frame_timer_, &QTimer::timeout, this, &MainWindow::advance);
   frame_timer_.start(16);
@@ -189,8 +195,28 @@ void MainWindow::build_ui() {
   frame_label_->setObjectName("frameRateReadout");
   readouts_layout->addRow("Force", force_label_);
   readouts_layout->addRow("Indentation", depth_label_);
+  p99_label_ = new QLabel("0 us");
+  misses_label_ = new QLabel("0");
+  device_label_ = new QLabel;
+  warnings_label_ = new QLabel;
+  p99_label_->setObjectName("tickP99Readout");
+  misses_label_->setObjectName("missesReadout");
+  device_label_->setObjectName("deviceStatus");
+  warnings_label_->setObjectName("loopWarnings");
+  device_label_->setWordWrap(true);
+  warnings_label_->setWordWrap(true);
+  warnings_label_->setStyleSheet("QLabel { color: #a05a00; }");
+  reenable_button_ = new QPushButton("Re-enable device");
+  reenable_button_->setObjectName("reenableDevice");
+  reenable_button_->setToolTip("Re-enable force output of the selected probe's device (clears a latched fault)");
+  connect(reenable_button_, &QPushButton::clicked, this, &MainWindow::reenable_selected);
   readouts_layout->addRow("Haptic rate", haptic_label_);
+  readouts_layout->addRow("Tick p99", p99_label_);
+  readouts_layout->addRow("Missed deadlines", misses_label_);
   readouts_layout->addRow("Frame rate", frame_label_);
+  readouts_layout->addRow("Device", device_label_);
+  readouts_layout->addRow(reenable_button_);
+  readouts_layout->addRow(warnings_label_);
   plot_ = new ForcePlot;
   readouts_layout->addRow(plot_);
   auto* readouts_dock = new QDockWidget("Readouts", this);
@@ -284,6 +310,10 @@ void MainWindow::build_menus() {
   hold_action_ = probe->addAction("&Hold indentation after release");
   hold_action_->setCheckable(true);
   hold_action_->setChecked(true);
+
+  QMenu* devices = menuBar()->addMenu("&Devices");
+  devices->addAction("&Add device probe...", this, &MainWindow::add_device_dialog);
+  devices->addAction("&Re-enable selected device", this, &MainWindow::reenable_selected);
 
   QMenu* sim = menuBar()->addMenu("&Simulation");
   sim->addAction("&Reset", this, &MainWindow::reset)->setShortcut(QKeySequence("Ctrl+R"));
@@ -391,9 +421,17 @@ void MainWindow::install_organ(render::Organ organ) {
   workbench_.set_organ(std::move(organ));  // all or nothing
   if (view_) vtk_->renderer->RemoveActor(view_->actor());
   view_ = std::move(view);
-  view_->sync(workbench_.surface());
   vtk_->renderer->AddActor(view_->actor());
-  if (workbench_.probes().empty()) workbench_.add_probe();
+  if (workbench_.probes().empty()) {
+    try {
+      workbench_.add_probe();
+    } catch (const std::exception& e) {
+      show_error(QString("Could not add a mouse probe: %1").arg(e.what()));
+    }
+  }
+  stream_.clear();
+  view_at_rest_ = true;
+  pull_surface();
 
   // Probe glyph size from the organ's size.
   const auto& f = workbench_.organ().facts;
@@ -476,15 +514,128 @@ void MainWindow::apply_material() {
   m.radius = radius_mm_->value() * 1e-3;
   m.friction = friction_->value();
   m.max_force = max_force_->value();
-  workbench_.set_material(m);
+  try {
+    workbench_.set_material(m);  // the loop restarts with it, probes kept
+  } catch (const std::exception& e) {
+    show_error(QString("Could not apply the material: %1").arg(e.what()));
+    return;
+  }
+  stream_.clear();
+  pull_surface();
   save_settings();
 }
 
 // ---------------------------------------------------------------------------
 // Probes.
 void MainWindow::add_probe() {
-  workbench_.add_probe();
+  try {
+    workbench_.add_probe();
+  } catch (const std::exception& e) {
+    show_error(QString("Could not add a probe: %1").arg(e.what()));
+    return;
+  }
+  stream_.clear();
   refresh_probe_list();
+}
+
+bool MainWindow::add_device_probe(const QString& plugin, const QString& options) {
+  // Scripted trajectories are written in world coordinates; a hand-held
+  // device's origin goes to the organ's centre.
+  haptics::DeviceMapping mapping;
+  if (plugin != "scripted" && workbench_.has_organ()) {
+    const auto& f = workbench_.organ().facts;
+    const Vec3 c = 0.5 * (f.bbox_min + f.bbox_max);
+    mapping.offset = {c.x(), c.y(), c.z()};
+  }
+  try {
+    workbench_.add_device_probe(plugin.toStdString(), options.toStdString(), mapping);
+  } catch (const std::exception& e) {
+    show_error(QString("Could not add a %1 device: %2").arg(plugin, QString::fromStdString(e.what())));
+    return false;
+  }
+  clear_error();
+  stream_.clear();
+  refresh_probe_list();
+  statusBar()->showMessage("Added a " + plugin + " device", 5000);
+  return true;
+}
+
+// The device dialog: a page of options per plugin, plus free options.
+void MainWindow::add_device_dialog() {
+  QDialog dialog(this);
+  dialog.setWindowTitle("Add device probe");
+  auto* form = new QFormLayout(&dialog);
+  auto* kind = new QComboBox;
+  kind->addItems({"scripted", "spacemouse", "falcon", "igtl", "mouse"});
+  form->addRow("Device", kind);
+  auto* pages = new QStackedWidget;
+  auto file_row = [&](QWidget* page, const QString& label, const QString& filter) {
+    auto* row = new QHBoxLayout;
+    auto* edit = new QLineEdit;
+    auto* browse = new QPushButton("Browse...");
+    row->addWidget(edit, 1);
+    row->addWidget(browse);
+    connect(browse, &QPushButton::clicked, &dialog, [&dialog, edit, label, filter] {
+      const QString path = QFileDialog::getOpenFileName(&dialog, label, QString(), filter);
+      if (!path.isEmpty()) edit->setText(path);
+    });
+    auto* layout = new QFormLayout(page);
+    layout->addRow(label, row);
+    return std::make_pair(edit, layout);
+  };
+  // scripted: trajectory file, loop.
+  auto* scripted = new QWidget;
+  auto [trajectory, scripted_form] = file_row(scripted, "Trajectory", "Trajectories (*.csv);;All files (*)");
+  auto* loop = new QCheckBox("Start over at the end");
+  scripted_form->addRow(loop);
+  // spacemouse: nothing required.
+  auto* spacemouse = new QWidget;
+  (new QFormLayout(spacemouse))->addRow(new QLabel("The first 3Dconnexion device found (rate control)."));
+  // falcon: the firmware file the user provides.
+  auto* falcon = new QWidget;
+  auto [firmware, falcon_form] = file_row(falcon, "Firmware", "Firmware (*.bin);;All files (*)");
+  falcon_form->addRow(new QLabel("Novint's firmware is not shipped; needed when the Falcon has none loaded."));
+  // igtl: host and port.
+  auto* igtl = new QWidget;
+  auto* igtl_form = new QFormLayout(igtl);
+  auto* host = new QLineEdit("127.0.0.1");
+  auto* port = new QSpinBox;
+  port->setRange(1, 65535);
+  port->setValue(18944);
+  igtl_form->addRow("Host", host);
+  igtl_form->addRow("Port", port);
+  auto* mouse = new QWidget;
+  (new QFormLayout(mouse))->addRow(new QLabel("A virtual probe driven by the mouse."));
+  for (QWidget* w : {scripted, spacemouse, falcon, igtl, mouse}) pages->addWidget(w);
+  connect(kind, qOverload<int>(&QComboBox::currentIndexChanged), pages, &QStackedWidget::setCurrentIndex);
+  form->addRow(pages);
+  auto* extra = new QLineEdit;
+  extra->setPlaceholderText("more options: key=value;key=value (plugins/README.md)");
+  form->addRow("Options", extra);
+  auto* box = new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel);
+  connect(box, &QDialogButtonBox::accepted, &dialog, &QDialog::accept);
+  connect(box, &QDialogButtonBox::rejected, &dialog, &QDialog::reject);
+  form->addRow(box);
+  if (dialog.exec() != QDialog::Accepted) return;
+
+  // Options string from the page of the chosen plugin.
+  const QString plugin = kind->currentText();
+  QStringList options;
+  if (plugin == "scripted") {
+    options << "file=" + trajectory->text();
+    if (loop->isChecked()) options << "loop=true";
+  } else if (plugin == "falcon" && !firmware->text().isEmpty()) {
+    options << "firmware=" + firmware->text();
+  } else if (plugin == "igtl") {
+    options << "host=" + host->text() << "port=" + QString::number(port->value());
+  }
+  if (!extra->text().trimmed().isEmpty()) options << extra->text().trimmed();
+  add_device_probe(plugin, options.join(';'));
+}
+
+void MainWindow::reenable_selected() {
+  workbench_.reenable(workbench_.selected_id());
+  update_readouts();
 }
 
 void MainWindow::remove_selected_probe() {
@@ -494,6 +645,8 @@ void MainWindow::remove_selected_probe() {
     probe_views_.erase(it);
   }
   workbench_.remove_probe(id);
+  stream_.clear();
+  pull_surface();
   refresh_probe_list();
 }
 
@@ -502,7 +655,9 @@ void MainWindow::refresh_probe_list() {
   probe_list_->clear();
   int row = 0;
   for (const Probe& p : workbench_.probes()) {
-    probe_list_->addItem(QString("Probe %1").arg(p.id));
+    probe_list_->addItem(p.host_fed && p.device == "mouse" ? QString("Probe %1").arg(p.id)
+                                                           : QString("Probe %1 (%2)").arg(p.id).arg(
+                                                                 QString::fromStdString(p.device)));
     if (p.id == workbench_.selected_id()) probe_list_->setCurrentRow(row);
     ++row;
   }
@@ -511,7 +666,8 @@ void MainWindow::refresh_probe_list() {
 void MainWindow::reset() {
   workbench_.reset();
   plot_->clear();
-  if (view_) view_->sync(workbench_.surface());
+  stream_.clear();
+  pull_surface();
   statusBar()->showMessage("Reset", 3000);
 }
 
@@ -535,12 +691,8 @@ bool MainWindow::mouse_press(QMouseEvent* e) {
   if (e->button() != Qt::LeftButton || !workbench_.has_organ()) return false;
   Vec3 rest, normal, drawn;
   if (!pick_at(e->pos(), rest, normal, drawn)) return false;  // off the organ: VTK rotates
-  // Pressing near a placed probe takes that probe; else the selected one.
-  int id = workbench_.selected_id();
-  const double near = 0.1 * workbench_.material().radius;
-  for (const Probe& p : workbench_.probes())
-    if (p.placed && (p.anchor - rest).norm() < near) id = p.id;
-  if (!workbench_.probe(id)) id = workbench_.add_probe();
+  const int id = mouse_probe_for(rest);
+  if (id == 0) return true;
   workbench_.select_probe(id);
   refresh_probe_list();
   workbench_.place(id, rest, normal, 0.0);
@@ -551,10 +703,31 @@ bool MainWindow::mouse_press(QMouseEvent* e) {
   return true;
 }
 
+// Pressing near a placed mouse probe takes that probe; else the selected one
+// when the mouse drives it, else the first mouse probe, else a new one.
+int MainWindow::mouse_probe_for(const Vec3& rest) {
+  int id = 0;
+  if (const Probe* s = workbench_.selected_probe(); s && s->host_fed) id = s->id;
+  const double near = 0.1 * workbench_.material().radius;
+  for (const Probe& p : workbench_.probes()) {
+    if (!p.host_fed) continue;
+    if (id == 0 || (p.placed && (p.anchor - rest).norm() < near)) id = p.id;
+  }
+  if (id != 0) return id;
+  try {
+    id = workbench_.add_probe();
+  } catch (const std::exception& e) {
+    show_error(QString("Could not add a probe: %1").arg(e.what()));
+    return 0;
+  }
+  stream_.clear();
+  return id;
+}
+
 bool MainWindow::mouse_move(QMouseEvent* e) {
   if (indenting_) {
     Probe* p = workbench_.selected_probe();
-    if (!p) return true;
+    if (!p || !p->host_fed) return true;
     if (e->modifiers() & Qt::ShiftModifier) {
       // Slide: follow the surface under the cursor at the same depth.
       Vec3 rest, normal, drawn;
@@ -591,7 +764,7 @@ bool MainWindow::mouse_release(QMouseEvent* e) {
 bool MainWindow::wheel(QWheelEvent* e) {
   if (!indenting_) return false;  // VTK zooms
   Probe* p = workbench_.selected_probe();
-  if (!p) return true;
+  if (!p || !p->host_fed) return true;
   const double steps = e->angleDelta().y() / 120.0;
   press_depth_ += steps * kDepthPerWheelStep;
   workbench_.set_depth(p->id, p->depth + steps * kDepthPerWheelStep);
@@ -615,33 +788,40 @@ bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
 }
 
 // ---------------------------------------------------------------------------
-// The frame: catch up the simulation, move the GPU stream, draw.
+// The frame: the loop's latest state, the changed stream entries to the GPU, draw.
 void MainWindow::advance() {
   if (!workbench_.has_organ() || !view_) return;
   const double now = clock_.nsecsElapsed() * 1e-9;
-  debt_ += std::min(now - last_time_, 0.1);  // after a stall, do not try to catch up more than 0.1 s
-  last_time_ = now;
-  int ticks = 0;
-  while (debt_ >= kHapticDt && ticks < 200) {
-    workbench_.tick(kHapticDt);
-    debt_ -= kHapticDt;
-    ++ticks;
-  }
-  ticks_in_window_ += static_cast<std::uint64_t>(ticks);
-
-  view_->sync(workbench_.surface());
+  workbench_.update();
+  pull_surface();
   sync_probe_views();
   update_readouts();
   vtk_->window->Render();
   ++frames_in_window_;
 
-  // Rates over the last second.
+  // Frame rate over the last second; the haptic rate is the loop's own.
   if (now - rate_window_start_ >= 1.0) {
-    haptic_rate_ = ticks_in_window_ / (now - rate_window_start_);
     frame_rate_ = frames_in_window_ / (now - rate_window_start_);
-    ticks_in_window_ = frames_in_window_ = 0;
+    frames_in_window_ = 0;
     rate_window_start_ = now;
   }
+}
+
+// The stream entries the loop changed since the last frame (partial upload);
+// without a loop (no probe) the surface is drawn at rest.
+void MainWindow::pull_surface() {
+  if (!view_) return;
+  if (!workbench_.loop()) {
+    if (!view_at_rest_) {
+      stream_.assign(4 * view_->mesh().vertex_count(), 0.0f);
+      view_->update_all(stream_);
+      view_at_rest_ = true;
+    }
+    return;
+  }
+  const auto ranges = workbench_.take_surface_changes(stream_);
+  if (!ranges.empty()) view_->update(stream_, ranges);
+  view_at_rest_ = false;
 }
 
 void MainWindow::sync_probe_views() {
@@ -656,9 +836,10 @@ void MainWindow::sync_probe_views() {
     // The arrow reaches 0.2 organ diagonals at the maximum force.
     pv->set_force_scale(0.2 * diag / std::max(workbench_.material().max_force, 1e-9));
     pv->set_visible(p.placed);
+    // Mouse probes point along their press normal; devices along the contact's force.
+    const Vec3 axis = p.host_fed || p.output.force.norm() == 0 ? p.normal : Vec3(p.output.force.normalized());
     if (p.placed)
-      pv->set_state(p.tip, p.normal, p.output.force, p.output.in_contact && p.depth > 0,
-                    p.id == workbench_.selected_id());
+      pv->set_state(p.tip, axis, p.output.force, p.output.in_contact, p.id == workbench_.selected_id());
   }
 }
 
@@ -667,12 +848,42 @@ void MainWindow::update_readouts() {
   for (const Probe& p : workbench_.probes())
     if (p.placed) plot_->add_sample(p.id, t, p.output.force.norm());
   plot_->update();
+  QString status;
   if (const Probe* p = workbench_.selected_probe()) {
     force_label_->setText(QString::number(p->output.force.norm(), 'f', 2) + " N");
-    depth_label_->setText(mm(p->placed ? p->depth : 0.0) + " mm");
+    depth_label_->setText(mm(p->output.in_contact ? p->output.depth : 0.0) + " mm");
+    // Device state: the plugin's message, a latched fault, the safety flags.
+    QStringList lines;
+    if (p->dev) lines << QString::fromStdString(p->dev->message());
+    if (!p->fault_text.empty())
+      lines << QString("<b>Fault latched: %1</b> - press Re-enable").arg(QString::fromStdString(p->fault_text));
+    if (p->force_output) {
+      for (const auto& f : haptics::describe_safety_flags(p->output.flags))
+        lines << QString::fromStdString(f);
+    }
+    status = lines.join("<br>");
+    reenable_button_->setEnabled(p->force_output);
+  } else {
+    reenable_button_->setEnabled(false);
   }
+  if (device_label_->text() != status) device_label_->setText(status);
+  const haptics::LoopStatistics st = workbench_.statistics();
+  haptic_rate_ = st.achieved_rate_hz;
   haptic_label_->setText(QString::number(haptic_rate_, 'f', 0) + " Hz");
+  p99_label_->setText(QString::number(st.tick_duration.p99_us, 'f', 1) + " us");
+  misses_label_->setText(QString::number(st.deadline_misses));
   frame_label_->setText(QString::number(frame_rate_, 'f', 1) + " fps");
+  // Loop warnings (no real-time priority, missed deadlines, ...).
+  QStringList warnings;
+  for (const auto& w : haptics::describe_warnings(workbench_.view().warnings)) warnings << QString::fromStdString(w);
+  const QString text = warnings.join("\n");
+  if (warnings_label_->text() != text) {
+    warnings_label_->setText(text);
+    warnings_label_->setToolTip(QString::fromStdString(st.realtime_notice));
+  }
 }
+
+QString MainWindow::warnings_text() const { return warnings_label_->text(); }
+QString MainWindow::device_status_text() const { return device_label_->text(); }
 
 }  // namespace palpa::app

@@ -1,8 +1,10 @@
 #pragma once
-// The Qt5 workbench window: a VTK viewport on the organ, virtual probes
-// driven by the mouse, live readouts and a force plot, the material panel,
-// organ files by menu, drag and drop and recent files, settings kept
-// between runs. Errors appear in the window; the scene stays as it was.
+// The Qt5 workbench window: a VTK viewport on the organ, probes driven by the
+// real-time haptic loop (mouse probes the window feeds from picking, and
+// probes bound to device plugins from the Devices menu), live readouts from
+// the loop and a force plot, the material panel, organ files by menu, drag
+// and drop and recent files, settings kept between runs. Errors appear in the
+// window; the scene stays as it was.
 
 #include "app/gui/workbench.h"
 
@@ -14,6 +16,7 @@
 
 #include <map>
 #include <memory>
+#include <vector>
 
 class QAction;
 class QComboBox;
@@ -21,6 +24,7 @@ class QDoubleSpinBox;
 class QLabel;
 class QListWidget;
 class QMenu;
+class QPushButton;
 class QVTKOpenGLNativeWidget;
 class vtkRenderer;
 
@@ -56,6 +60,16 @@ class MainWindow : public QMainWindow {
   /// Adds a probe (and selects it); removes the selected one.
   void add_probe();
   void remove_selected_probe();
+  /// Adds a probe bound to device plugin `plugin` created with `options`
+  /// (plugins/README.md lists them); `scripted` trajectories are in world
+  /// coordinates, other devices have their origin at the organ's centre. On
+  /// failure shows "Could not add a <plugin> device: <reason>", changes
+  /// nothing and returns false.
+  bool add_device_probe(const QString& plugin, const QString& options);
+  /// Asks for a device and its options (Devices menu).
+  void add_device_dialog();
+  /// Re-enables force output of the selected probe (clears a latched fault).
+  void reenable_selected();
 
   Workbench& workbench() { return workbench_; }
   QVTKOpenGLNativeWidget* viewport() const { return viewport_; }
@@ -65,13 +79,16 @@ class MainWindow : public QMainWindow {
   QString error_text() const;
   QString facts_text() const;
   QStringList recent_files() const { return recent_; }
-  /// Measured rates, per second.
+  /// The loop's achieved tick rate and the frame rate, per second.
   double haptic_rate() const { return haptic_rate_; }
   double frame_rate() const { return frame_rate_; }
   ForcePlot* force_plot() const { return plot_; }
+  /// Loop warnings and the selected probe's safety state / latched fault, as shown.
+  QString warnings_text() const;
+  QString device_status_text() const;
 
-  /// Advances the simulation to the wall clock in 1 ms haptic ticks and
-  /// draws one frame (the frame timer calls this).
+  /// Reads the haptic loop's latest state, moves the changed stream entries
+  /// to the GPU and draws one frame (the frame timer calls this).
   void advance();
 
  protected:
@@ -95,6 +112,9 @@ class MainWindow : public QMainWindow {
   void refresh_probe_list();
   void sync_probe_views();
   void update_readouts();
+  void pull_surface();
+  // The selected probe if the mouse drives it, else a mouse probe to use.
+  int mouse_probe_for(const Vec3& rest);
   // Mouse: display coordinates of a widget position, and the three gestures.
   bool pick_at(const QPoint& pos, Vec3& rest_point, Vec3& rest_normal, Vec3& drawn_point) const;
   bool mouse_press(QMouseEvent* e);
@@ -118,6 +138,11 @@ class MainWindow : public QMainWindow {
   QLabel* depth_label_ = nullptr;
   QLabel* haptic_label_ = nullptr;
   QLabel* frame_label_ = nullptr;
+  QLabel* p99_label_ = nullptr;
+  QLabel* misses_label_ = nullptr;
+  QLabel* device_label_ = nullptr;
+  QLabel* warnings_label_ = nullptr;
+  QPushButton* reenable_button_ = nullptr;
   ForcePlot* plot_ = nullptr;
   QComboBox* model_box_ = nullptr;
   QComboBox* shape_box_ = nullptr;
@@ -137,12 +162,15 @@ class MainWindow : public QMainWindow {
   double press_depth_ = 0;   // m, from the wheel while pressed
   bool loading_settings_ = true;  // no saving while the window is being built
 
+  // Render stream mirror (4 floats per vertex) and whether the view is at rest.
+  std::vector<float> stream_;
+  bool view_at_rest_ = true;
+
   // Clock and rates.
   QTimer frame_timer_;
   QElapsedTimer clock_;
-  double last_time_ = 0, debt_ = 0;
   double rate_window_start_ = 0;
-  std::uint64_t ticks_in_window_ = 0, frames_in_window_ = 0;
+  std::uint64_t frames_in_window_ = 0;
   double haptic_rate_ = 0, frame_rate_ = 0;
 };
 

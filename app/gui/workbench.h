@@ -1,14 +1,24 @@
 #pragma once
-// The workbench's model, without Qt: the organ, its deformable surface, the
-// collision tree, the virtual probes the mouse drives and the material the
-// panel edits. The window calls tick() at the haptic rate and draws the result.
+// The workbench's model, without Qt: the organ, the probes and the material
+// the panel edits, all driven by the real-time haptic loop
+// (haptics::HapticLoop, its own threads at 1 kHz). Every probe is a device
+// plugin: the virtual probes the mouse drives are `mouse` devices the window
+// feeds (Device::feed) with the picked tip; other probes are bound to any
+// plugin (scripted, spacemouse, falcon, igtl). The window calls update() once
+// per frame to read the loop's latest state and take_surface_changes() to
+// move the render stream.
+//
+// The loop has a fixed set of probes and materials, so adding or removing a
+// probe, changing the material or the organ, and reset() rebuild it (the
+// surface starts again from rest; the devices keep running).
 
-#include "collision/vertex_tree.h"
-#include "deform/surface.h"
-#include "haptics/probe_tick.h"
+#include "devices/loader.h"
+#include "haptics/loop.h"
 #include "render/organ.h"
 
+#include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace palpa::app {
@@ -25,37 +35,68 @@ struct MaterialSettings {
   double max_force = 8.0;    ///< N
 };
 
-/// One virtual probe: pressed `depth` into the organ at an undeformed
-/// surface point, along the inward normal there.
+/// The loop's latest state of one probe (from HapticLoop::view()).
+struct ProbeReadout {
+  Vec3 force = Vec3::Zero();  ///< force on the probe after safety, world frame, N
+  bool in_contact = false;
+  double depth = 0;           ///< penetration below the undeformed surface, m
+  std::uint32_t flags = 0;    ///< haptics::SafetyFlag bits
+  haptics::SafetyFault fault = haptics::SafetyFault::None;
+  bool enabled = false;       ///< force output enabled (devices with force output)
+};
+
+/// One probe. Mouse probes (host_fed) are pressed `depth` into the organ at
+/// an undeformed surface point along the inward normal there; other probes
+/// follow their device.
 struct Probe {
   int id = 0;
-  bool placed = false;           ///< has a surface point
-  Vec3 anchor = Vec3::Zero();    ///< undeformed surface point, m
-  Vec3 normal = Vec3::UnitZ();   ///< outward undeformed normal there, unit
-  double depth = 0;              ///< m below the undeformed surface (0: touching, not pressing)
-  Vec3 tip = Vec3::Zero();       ///< anchor - depth * normal, m
-  Vec3 velocity = Vec3::Zero();  ///< m/s
-  haptics::ProbeMemory memory;
-  haptics::ProbeOutput output;   ///< last tick's force and contact
+  std::string device = "mouse";  ///< plugin name
+  std::string options;           ///< plugin options it was created with
+  bool host_fed = true;          ///< the window feeds its positions (mouse)
+  bool force_output = false;     ///< the device renders forces
+  bool wants_output = true;      ///< enabled by the user; cleared when a fault latches
+  std::string fault_text;        ///< the latched fault, until re-enabled (empty: none)
+  haptics::DeviceMapping mapping;  ///< device to world (identity for mouse probes)
+  bool placed = false;           ///< mouse: has a surface point; others: has a reading
+  Vec3 anchor = Vec3::Zero();    ///< mouse: undeformed surface point, m
+  Vec3 normal = Vec3::UnitZ();   ///< mouse: outward undeformed normal there, unit
+  double depth = 0;              ///< mouse: m below the undeformed surface (0: lifted off)
+  Vec3 tip = Vec3::Zero();       ///< probe position (mouse: what is fed; others: the loop's), m
+  ProbeReadout output;           ///< the loop's latest state (update())
+  std::shared_ptr<devices::Device> dev;  ///< started; outlives every loop that uses it
 };
 
 class Workbench {
  public:
-  /// Replaces the organ: new surface and tree; probes stay but are lifted
-  /// and unplaced. Strong guarantee: if building throws, nothing changes.
-  void set_organ(render::Organ organ);
-  bool has_organ() const { return surface_ != nullptr; }
-  const render::Organ& organ() const { return organ_; }
-  deform::DeformableSurface& surface() { return *surface_; }
-  const deform::DeformableSurface& surface() const { return *surface_; }
+  /// Loads plugins through `loader` (default search path when omitted).
+  Workbench();
+  explicit Workbench(devices::PluginLoader loader);
+  ~Workbench();
+  Workbench(const Workbench&) = delete;
+  Workbench& operator=(const Workbench&) = delete;
 
-  /// Applies the material to every vertex, the shape and force parameters to every contact (next tick).
+  /// Replaces the organ: a new loop on it; probes stay, mouse probes are
+  /// unplaced. Strong guarantee: if building throws, nothing changes.
+  void set_organ(render::Organ organ);
+  bool has_organ() const { return organ_.mesh != nullptr; }
+  const render::Organ& organ() const { return organ_; }
+
+  /// New material for every vertex and new force/shape parameters (the loop
+  /// is rebuilt with them; probes kept). Strong guarantee.
   void set_material(const MaterialSettings& m);
   const MaterialSettings& material() const { return material_; }
+  /// The per-vertex materials the running model uses.
+  const deform::MaterialArrays& materials() const { return materials_; }
 
-  /// Adds a probe and selects it; returns its id.
+  /// Adds a mouse probe and selects it; returns its id. Throws (nothing
+  /// changed) when the mouse plugin cannot be loaded or the loop is full.
   int add_probe();
-  /// Removes a probe (its contact is released at the next tick).
+  /// Adds a probe bound to plugin `plugin` created with `options`, started,
+  /// mapped with `mapping`, force output enabled; selects it and returns its
+  /// id. Throws devices::DeviceError (or std::invalid_argument from the
+  /// loop) with the plugin's message; nothing changes then.
+  int add_device_probe(const std::string& plugin, const std::string& options, const haptics::DeviceMapping& mapping);
+  /// Removes a probe (its device stops once the loop no longer uses it).
   void remove_probe(int id);
   void select_probe(int id);
   int selected_id() const { return selected_; }
@@ -63,37 +104,57 @@ class Workbench {
   Probe* selected_probe() { return probe(selected_); }
   const std::vector<Probe>& probes() const { return probes_; }
 
-  /// Puts probe `id` at an undeformed surface point with an indentation depth (m, clamped to 0..max_depth()).
+  /// Puts mouse probe `id` at an undeformed surface point with an
+  /// indentation depth (m, clamped to 0..max_depth()) and feeds its device.
   void place(int id, const Vec3& anchor, const Vec3& normal, double depth);
   void set_depth(int id, double depth);
   /// Deepest indentation allowed, m (the shape function's support radius).
   double max_depth() const { return material_.radius; }
+  /// How far above the surface a lifted mouse probe (depth 0) is held, m.
+  static constexpr double kLiftClearance = 1e-3;
 
-  /// One haptic tick (collision, eq. 4 force) for every placed probe, then
-  /// a deformation step, both of dt seconds.
-  void tick(double dt);
-  /// Surface to rest, every probe lifted (depth 0).
+  /// Re-enables force output of probe `id` (clears a latched fault).
+  void reenable(int id);
+
+  /// Reads the loop's latest state into every probe's output and tip;
+  /// latches fault texts. Call once per frame.
+  void update();
+  /// The stream entries (4 floats per vertex) changed since the last call,
+  /// from the loop (everything after a rebuild); empty without a loop.
+  std::vector<IndexRange> take_surface_changes(std::vector<float>& stream);
+
+  /// Surface to rest (the loop is rebuilt), every mouse probe lifted.
   void reset();
-  /// Simulated time since the organ was set, s.
+
+  /// The running loop, or null (no organ or no probe).
+  const haptics::HapticLoop* loop() const { return loop_.get(); }
+  haptics::LoopView view() const;
+  haptics::LoopStatistics statistics() const;
+  /// Probes in contact at the latest update().
+  std::size_t contact_count() const;
+  /// s since the organ was set (CLOCK_MONOTONIC of the loop's latest tick).
   double time() const { return time_; }
-  std::uint64_t ticks() const { return ticks_; }
 
  private:
+  haptics::LoopConfig loop_config() const;
+  std::unique_ptr<haptics::HapticLoop> build_loop(const render::Organ& organ, const deform::MaterialArrays& materials,
+                                                  const haptics::LoopConfig& config,
+                                                  const std::vector<Probe>& probes) const;
+  // Stops the current loop and starts `next` (may be null) with `probes`.
+  void install(std::unique_ptr<haptics::HapticLoop> next, std::vector<Probe>& probes);
+  void feed(const Probe& p) const;
+  int add(Probe p);
+
+  devices::PluginLoader loader_;
   render::Organ organ_;
-  std::unique_ptr<deform::DeformableSurface> surface_;
-  std::unique_ptr<collision::VertexTree> tree_;
   MaterialSettings material_;
+  deform::MaterialArrays materials_;
   std::vector<Probe> probes_;
+  std::unique_ptr<haptics::HapticLoop> loop_;
   int selected_ = 0;
   int next_id_ = 1;
+  double epoch_ = 0;  // s, CLOCK_MONOTONIC when the organ was set
   double time_ = 0;
-  std::uint64_t ticks_ = 0;
-  // Scratch for tick() (kept to avoid reallocating every millisecond).
-  std::vector<haptics::ProbeInput> inputs_;
-  std::vector<haptics::ProbeMemory> memory_;
-  std::vector<haptics::ProbeOutput> outputs_;
-  std::vector<std::size_t> which_;
-  std::vector<deform::Contact> contacts_;
 };
 
 /// The core's material from the panel's settings.
