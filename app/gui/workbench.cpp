@@ -67,12 +67,16 @@ std::unique_ptr<haptics::HapticLoop> Workbench::build_loop(const render::Organ& 
 }
 
 // Nothing here throws once `next` is built: stop the old loop, swap, start.
+// The mouse devices are fed the probes' current state before the new loop
+// starts, so its first ticks never read a position from before the change
+// (a probe lifted by reset() would otherwise still press for a moment).
 void Workbench::install(std::unique_ptr<haptics::HapticLoop> next, std::vector<Probe>& probes) {
   if (loop_) loop_->stop();
   std::swap(loop_, next);
   std::swap(probes_, probes);
   next.reset();  // the old loop goes before the devices only it used (in `probes`)
   for (Probe& p : probes_) p.output = {};
+  for (const Probe& p : probes_) feed(p);
   if (!loop_) return;
   loop_->start();
   for (std::size_t i = 0; i < probes_.size(); ++i)
@@ -110,7 +114,6 @@ void Workbench::set_organ(render::Organ organ) {
   organ_ = std::move(organ);
   materials_ = std::move(materials);
   install(std::move(loop), next);
-  for (const Probe& p : probes_) feed(p);
   epoch_ = monotonic_now();
   time_ = 0;
 }
@@ -131,7 +134,6 @@ void Workbench::set_material(const MaterialSettings& m) {
     material_ = old;
     throw;
   }
-  for (const Probe& p : probes_) feed(p);
 }
 
 // ---------------------------------------------------------------------------
@@ -147,7 +149,6 @@ int Workbench::add(Probe p) {
   install(std::move(loop), next);
   ++next_id_;
   selected_ = p.id;
-  feed(p);
   return p.id;
 }
 
@@ -260,7 +261,6 @@ void Workbench::reset() {
   }
   std::vector<Probe> next = probes_;
   install(build_loop(organ_, materials_, loop_config(), next), next);
-  for (const Probe& p : probes_) feed(p);
 }
 
 haptics::LoopView Workbench::view() const { return loop_ ? loop_->view() : haptics::LoopView{}; }
