@@ -203,16 +203,31 @@ inline bool has_vertex(const mesh::Triangle& tri, Index v) {
   return tri[0] == v || tri[1] == v || tri[2] == v;
 }
 
-// Calls f(t) for every triangle around v, then (when `wide`) for every
-// triangle around v's neighbours that does not touch v.
+// Calls f(t) for every triangle around v, then (when `wide`) once for every
+// triangle around v's neighbours that does not touch v: a triangle with two
+// of v's neighbours as corners is visited from the first of them in v's
+// (sorted) neighbour row only.
 template <class F>
 void visit(const mesh::SurfaceMesh& mesh, Index v, bool ring, bool wide, F&& f) {
   if (ring)
     for (Index t : mesh.vertex_triangles.row(v)) f(t);
   if (!wide || mesh.vertex_neighbors.rows() != mesh.vertex_count()) return;
-  for (Index u : mesh.vertex_neighbors.row(v))
-    for (Index t : mesh.vertex_triangles.row(u))
-      if (!has_vertex(mesh.triangles[t], v)) f(t);
+  const auto around = mesh.vertex_neighbors.row(v);
+  // True when w is a neighbour of v listed before u (w < u in the sorted row).
+  auto earlier_neighbor = [&](Index w, Index u) {
+    if (!(w < u)) return false;
+    for (Index x : around)
+      if (x == w) return true;
+    return false;
+  };
+  for (Index u : around)
+    for (Index t : mesh.vertex_triangles.row(u)) {
+      const mesh::Triangle& tri = mesh.triangles[t];
+      if (has_vertex(tri, v)) continue;
+      bool seen_before = false;
+      for (int k = 0; k < 3; ++k) seen_before = seen_before || (tri[k] != u && earlier_neighbor(tri[k], u));
+      if (!seen_before) f(t);
+    }
 }
 
 // The virtual vertex on triangle t (corner positions p, m, and unit normals
@@ -321,42 +336,74 @@ SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& pro
   // The triangle whose interpolated normal passes through the probe: first
   // around the nearest vertex, then around its neighbours. In each set the
   // triangle nearest the probe is solved first; the others are solved only
-  // when some point of theirs could be nearer than the answer so far.
+  // when some point of theirs could be nearer than the answer so far. The
+  // distances of the triangles seen are kept (in visit order) so that no
+  // distance is computed twice; past kSeen triangles they are recomputed.
+  constexpr std::size_t kSeen = 128;
+  std::array<Index, kSeen> seen_t;
+  std::array<double, kSeen> seen_d2;
+  std::size_t n_seen = 0;
+  bool overflow = false;
   Candidate best;
+  Vec3 unused;
   auto search_set = [&](bool ring, bool wide) {
-    // Distances of the first few triangles are kept (visit order is fixed).
-    std::array<double, 24> seen;
+    const std::size_t begin = n_seen;
+    bool set_overflow = false;
     Index first = kNoIndex;
     double first_d2 = std::numeric_limits<double>::infinity();
-    std::size_t k = 0;
-    Vec3 unused;
     visit(mesh, nearest_vertex, ring, wide, [&](Index t) {
       const double d2 = closest_dist2(mesh, t, probe, unused);
-      if (k < seen.size()) seen[k] = d2;
-      ++k;
+      if (n_seen < kSeen) {
+        seen_t[n_seen] = t;
+        seen_d2[n_seen++] = d2;
+      } else {
+        set_overflow = true;
+      }
       if (d2 < first_d2) {
         first_d2 = d2;
         first = t;
       }
     });
+    overflow = overflow || set_overflow;
     if (first == kNoIndex) return;
     try_inside(mesh, first, probe, best);
-    k = 0;
+    if (!set_overflow) {
+      for (std::size_t i = begin; i < n_seen; ++i) {
+        const Index t = seen_t[i];
+        if (t == first || (best.triangle != kNoIndex && seen_d2[i] >= best.distance_sq)) continue;
+        try_inside(mesh, t, probe, best);
+      }
+      return;
+    }
     visit(mesh, nearest_vertex, ring, wide, [&](Index t) {
-      const std::size_t i = k++;
       if (t == first) return;
-      if (best.triangle != kNoIndex &&
-          (i < seen.size() ? seen[i] : closest_dist2(mesh, t, probe, unused)) >= best.distance_sq)
-        return;
+      if (best.triangle != kNoIndex && closest_dist2(mesh, t, probe, unused) >= best.distance_sq) return;
       try_inside(mesh, t, probe, best);
     });
   };
   search_set(true, false);
   if (best.triangle == kNoIndex) search_set(false, true);
   sp.inside = best.triangle != kNoIndex;
-  // None contains it: the closest point of those triangles, clamped.
-  if (!sp.inside)
-    visit(mesh, nearest_vertex, true, true, [&](Index t) { try_closest(mesh, t, probe, best); });
+  // None contains it: the closest point of those triangles, clamped (the
+  // first nearest in visit order, from the distances kept).
+  if (!sp.inside) {
+    if (!overflow) {
+      std::size_t arg = kSeen;
+      double d_min = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < n_seen; ++i)
+        if (seen_d2[i] < d_min) {
+          d_min = seen_d2[i];
+          arg = i;
+        }
+      if (arg < n_seen) {
+        Vec3 b;
+        const double d2 = closest_dist2(mesh, seen_t[arg], probe, b);
+        best = {seen_t[arg], b, d2};
+      }
+    } else {
+      visit(mesh, nearest_vertex, true, true, [&](Index t) { try_closest(mesh, t, probe, best); });
+    }
+  }
   if (best.triangle == kNoIndex) return sp;
 
   return finish(mesh, best.triangle, best.b, probe, sp.inside);
