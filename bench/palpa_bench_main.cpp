@@ -194,9 +194,22 @@ std::vector<MeshCase> organ_cases(const fs::path& dir) {
     if (e.is_regular_file()) files.push_back(e.path());
   }
   std::sort(files.begin(), files.end());
+  // Every format the loader reads; a mesh stored twice (the same stem in two
+  // formats, like sofa_coeur1.off and .trian) is measured once.
+  const auto readable = [](const std::string& ext) {
+    return ext == ".obj" || ext == ".stl" || ext == ".ply" || ext == ".off" || ext == ".vtk" || ext == ".vtp" ||
+           ext == ".trian";
+  };
   for (const auto& f : files) {
     const std::string ext = lower(f.extension().string());
-    if (ext == ".obj" || ext == ".stl" || ext == ".ply" || ext == ".off" || ext == ".vtk" || ext == ".vtp") {
+    if (readable(ext)) {
+      const auto same = std::find_if(cases.begin(), cases.end(),
+                                     [&](const MeshCase& c) { return c.name == f.stem().string(); });
+      if (same != cases.end()) {
+        std::printf("shared organs: %s skipped (the same mesh as %s)\n", f.filename().string().c_str(),
+                    same->source.c_str());
+        continue;
+      }
       MeshCase c;
       c.name = f.stem().string();
       c.source = f.filename().string();
