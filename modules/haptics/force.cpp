@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace palpa::haptics {
 
@@ -19,7 +20,8 @@ Vec3 contact_force(double normal_reaction, const Vec3& normal, const Vec3& veloc
   return force;
 }
 
-Vec3 clamp_force(const Vec3& f, double max_force) {
+Vec3 clamp_force(const Vec3& f, double max_force, bool* clamped) {
+  if (clamped) *clamped = false;
   // Non-finite input or limit: no force.
   if (!f.allFinite() || !(max_force >= 0) || !std::isfinite(max_force)) return Vec3::Zero();
   // Compute the magnitude without overflow (components may be near DBL_MAX).
@@ -28,8 +30,12 @@ Vec3 clamp_force(const Vec3& f, double max_force) {
   const Vec3 unit_scaled = f / big;
   const double magnitude = big * unit_scaled.norm();
   if (magnitude <= max_force) return f;
-  // Scale the whole vector: direction kept, magnitude max_force.
-  return unit_scaled * (max_force / unit_scaled.norm());
+  // Scale the whole vector: direction kept, magnitude max_force. Rounding can
+  // leave the norm an ulp or two above the limit; shrink by ulps until it is not.
+  if (clamped) *clamped = true;
+  Vec3 out = unit_scaled * (max_force / unit_scaled.norm());
+  for (int i = 0; i < 8 && out.norm() > max_force; ++i) out *= 1.0 - 4 * std::numeric_limits<double>::epsilon();
+  return out.norm() <= max_force ? out : Vec3::Zero();
 }
 
 }  // namespace palpa::haptics

@@ -23,7 +23,9 @@ struct ForceParams {
 /// direction; |T| is regularised below slip_speed. Returns N, before clamping.
 Vec3 contact_force(double normal_reaction, const Vec3& normal, const Vec3& velocity, const ForceParams& p);
 
-/// Scales f so that |f| <= max_force (direction kept); non-finite input gives zero. N.
-Vec3 clamp_force(const Vec3& f, double max_force);
+/// Scales f so that |f| <= max_force holds exactly as f.norm() computes it
+/// (direction kept); non-finite input or limit gives zero. N. When `clamped`
+/// is given, it says whether the force was scaled down.
+Vec3 clamp_force(const Vec3& f, double max_force, bool* clamped = nullptr);
 
 }  // namespace palpa::haptics

@@ -1,5 +1,7 @@
 #include "haptics/safety.h"
 
+#include "haptics/force.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -13,15 +15,6 @@ std::string number(double v) {
   std::ostringstream s;
   s << v;
   return s.str();
-}
-
-// Scales f onto the ball of radius r; the factor is shrunk by a few ulps so
-// that rounding can never leave |f| above r.
-Vec3 clamp_norm(const Vec3& f, double r, bool& clamped) {
-  const double n = f.norm();
-  clamped = n > r;
-  if (!clamped) return f;
-  return f * ((r / n) * (1.0 - 1e-12));
 }
 
 }  // namespace
@@ -90,7 +83,7 @@ Vec3 SafetyFilter::apply(const Vec3& force, std::uint32_t conditions, double t, 
 
   // Clamp to the device's maximum force, keeping the direction.
   bool clamped = false;
-  Vec3 f = clamp_norm(force, limits_.max_force, clamped);
+  Vec3 f = clamp_force(force, limits_.max_force, &clamped);
   if (clamped) flags |= kSafetyClamped;
 
   // Ramp-in: scale linearly from 0 to 1 over ramp_time after (re-)enabling.
@@ -112,7 +105,7 @@ Vec3 SafetyFilter::apply(const Vec3& force, std::uint32_t conditions, double t, 
 
   // Final guard: finite and within the limit whatever happened above.
   if (!f.allFinite()) f = Vec3::Zero();
-  f = clamp_norm(f, limits_.max_force, clamped);
+  f = clamp_force(f, limits_.max_force);
   last_ = f;
   return f;
 }
