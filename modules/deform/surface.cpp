@@ -52,7 +52,7 @@ std::size_t DeformableSurface::MaterialKeyHash::operator()(const MaterialKey& k)
 
 DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> mesh, MaterialArrays materials,
                                      SurfaceOptions options)
-    : mesh_(std::move(mesh)), materials_(std::move(materials)), options_(options) {
+    : mesh_(std::move(mesh)), options_(options) {
   // The mesh must be finalized: one normal and one adjacency row per vertex.
   if (!mesh_) throw std::invalid_argument("DeformableSurface: the mesh is null");
   const std::size_t n = mesh_->vertex_count();
@@ -78,7 +78,7 @@ DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> me
     msg << "SurfaceOptions: min_normal_cosine must be in [-1, 1], got " << options_.min_normal_cosine;
     throw std::invalid_argument(msg.str());
   }
-  materials_.validate(n);
+  materials.validate(n);
 
   // Per-vertex arrays, all at rest; the whole stream is due for a first upload.
   state_.vertices.assign(n, VertexState{});
@@ -89,15 +89,19 @@ DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> me
   active_.resize(n);
   dirty_.resize(n);
   all_dirty_ = true;
-  rebuild_integrators();
+  build_integrators(materials);
+}
+
+DeformableSurface::MaterialKey DeformableSurface::key_of(const Material& m) {
+  return {static_cast<std::uint64_t>(m.model), std::bit_cast<std::uint64_t>(m.mass),
+          std::bit_cast<std::uint64_t>(m.damping), std::bit_cast<std::uint64_t>(m.stiffness),
+          std::bit_cast<std::uint64_t>(m.alpha), std::bit_cast<std::uint64_t>(m.k2),
+          std::bit_cast<std::uint64_t>(m.tau)};
 }
 
 Index DeformableSurface::intern_material(const Material& m) {
   // Find the material's integrator by bit pattern, adding it when new.
-  MaterialKey key = {static_cast<std::uint64_t>(m.model), std::bit_cast<std::uint64_t>(m.mass),
-                     std::bit_cast<std::uint64_t>(m.damping), std::bit_cast<std::uint64_t>(m.stiffness),
-                     std::bit_cast<std::uint64_t>(m.alpha), std::bit_cast<std::uint64_t>(m.k2),
-                     std::bit_cast<std::uint64_t>(m.tau)};
+  const MaterialKey key = key_of(m);
   auto [it, inserted] = integrator_lookup_.try_emplace(key, static_cast<Index>(integrators_.size()));
   if (inserted) {
     Integrator g;
@@ -108,15 +112,15 @@ Index DeformableSurface::intern_material(const Material& m) {
   return it->second;
 }
 
-void DeformableSurface::rebuild_integrators() {
+void DeformableSurface::build_integrators(const MaterialArrays& materials) {
   // One integrator per distinct material; runs of equal materials skip the lookup.
   integrators_.clear();
   integrator_lookup_.clear();
-  integrator_of_.assign(materials_.size(), 0);
+  integrator_of_.assign(materials.size(), 0);
   Material previous;
   Index previous_index = kNoIndex;
-  for (std::size_t i = 0; i < materials_.size(); ++i) {
-    const Material m = materials_.at(static_cast<Index>(i));
+  for (std::size_t i = 0; i < materials.size(); ++i) {
+    const Material m = materials.at(static_cast<Index>(i));
     if (previous_index == kNoIndex || !(m == previous)) {
       previous = m;
       previous_index = intern_material(m);
@@ -125,22 +129,62 @@ void DeformableSurface::rebuild_integrators() {
   }
 }
 
-void DeformableSurface::set_material(Index i, const Material& m) {
-  if (i >= materials_.size()) {
-    throw std::invalid_argument("set_material: vertex " + std::to_string(i) + " is out of range (the mesh has " +
-                                std::to_string(materials_.size()) + " vertices)");
+void DeformableSurface::compact_integrators() {
+  // Keep only the integrators some vertex still uses, in order of first use.
+  std::vector<Index> remap(integrators_.size(), kNoIndex);
+  std::vector<Integrator> kept;
+  for (Index& g : integrator_of_) {
+    if (remap[g] == kNoIndex) {
+      remap[g] = static_cast<Index>(kept.size());
+      kept.push_back(integrators_[g]);
+    }
+    g = remap[g];
   }
-  validate_material(m, "material of vertex " + std::to_string(i));
-  materials_.set(i, m);
-  integrator_of_[i] = intern_material(m);
-  // Painting many distinct values leaves unused integrators behind: compact now and then.
-  if (integrators_.size() > 2 * materials_.size() + 64) rebuild_integrators();
+  integrators_ = std::move(kept);
+  integrator_lookup_.clear();
+  for (std::size_t j = 0; j < integrators_.size(); ++j)
+    integrator_lookup_.emplace(key_of(integrators_[j].material), static_cast<Index>(j));
 }
 
-void DeformableSurface::set_materials(MaterialArrays materials) {
+MaterialArrays DeformableSurface::materials() const {
+  MaterialArrays out = MaterialArrays::uniform(integrator_of_.size(), Material{});
+  for (std::size_t i = 0; i < integrator_of_.size(); ++i)
+    out.set(static_cast<Index>(i), integrators_[integrator_of_[i]].material);
+  return out;
+}
+
+bool DeformableSurface::uniform() const { return integrators_.size() == 1; }
+
+void DeformableSurface::set_material(Index i, const Material& m) {
+  if (i >= integrator_of_.size()) {
+    throw std::invalid_argument("set_material: vertex " + std::to_string(i) + " is out of range (the mesh has " +
+                                std::to_string(integrator_of_.size()) + " vertices)");
+  }
+  validate_material(m, "material of vertex " + std::to_string(i));
+  integrator_of_[i] = intern_material(m);
+  // Painting many distinct values leaves unused integrators behind: compact now and then.
+  if (integrators_.size() > 2 * integrator_of_.size() + 64) compact_integrators();
+}
+
+void DeformableSurface::set_materials(const MaterialArrays& materials) {
   materials.validate(mesh_->vertex_count());
-  materials_ = std::move(materials);
-  rebuild_integrators();
+  build_integrators(materials);
+}
+
+void DeformableSurface::set_uniform_material(const Material& m) {
+  validate_material(m, "uniform material");
+  Integrator g;
+  g.material = m;
+  if (coefficients_dt_ > 0) g.linear = LinearStep::make(m, coefficients_dt_);
+  if (integrators_.size() != 1) {
+    // Once per change from a map to one material: every vertex to entry 0.
+    std::fill(integrator_of_.begin(), integrator_of_.end(), Index{0});
+    integrators_.assign(1, g);
+  } else {
+    integrators_[0] = g;  // O(1): the table's only entry
+  }
+  integrator_lookup_.clear();
+  integrator_lookup_.emplace(key_of(m), Index{0});
 }
 
 void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
@@ -482,6 +526,13 @@ void DeformableSurface::set_state(const SurfaceState& s) {
     }
     write_stream(vi);
   }
+}
+
+void DeformableSurface::restore(const SurfaceState& s, std::span<const Contact> contacts) {
+  if (s.vertices.size() != mesh_->vertex_count()) set_state(s);  // throws with the sizes
+  contacts_.assign(contacts.begin(), contacts.end());
+  apply_fields();
+  set_state(s);
 }
 
 void DeformableSurface::reset() {

@@ -63,7 +63,11 @@ class DeformableSurface {
                     SurfaceOptions options = {});
 
   const mesh::SurfaceMesh& mesh() const { return *mesh_; }
-  const MaterialArrays& materials() const { return materials_; }
+  /// The per-vertex materials, rebuilt from the table of distinct materials
+  /// (O(vertices); for the GUI, tests and records, not for the haptic tick).
+  MaterialArrays materials() const;
+  /// True when every vertex has the same material.
+  bool uniform() const;
   /// The material of vertex i: the same values as materials().at(i), read
   /// from one small table of distinct materials (one index per vertex), so
   /// the haptic tick touches one array instead of seven. i < vertex count.
@@ -80,8 +84,12 @@ class DeformableSurface {
   /// Replace the material of vertex i (takes effect at the next step).
   /// Throws std::invalid_argument for an out-of-range vertex or a bad material.
   void set_material(Index i, const Material& m);
-  /// Replace the whole material map; throws as MaterialArrays::validate.
-  void set_materials(MaterialArrays materials);
+  /// Replace the whole material map (O(vertices)); throws as MaterialArrays::validate.
+  void set_materials(const MaterialArrays& materials);
+  /// Give every vertex material m (takes effect at the next step). O(1) when
+  /// the surface is already uniform (one table entry is replaced), one pass
+  /// over the vertices otherwise. Throws std::invalid_argument for a bad material.
+  void set_uniform_material(const Material& m);
   const SurfaceOptions& options() const { return options_; }
 
   /// The contacts whose force fields act during the following steps
@@ -119,6 +127,11 @@ class DeformableSurface {
   /// ("set_state: the snapshot has 3 vertices but the mesh has 4") or a value
   /// is not finite.
   void set_state(const SurfaceState& s);
+  /// Restores a snapshot taken as state() and contacts() after a step: the
+  /// contacts' fields are rebuilt first, so the surface (fields, active set,
+  /// stream) is exactly the one the snapshot was taken from and the next
+  /// step gives the same bits. Throws as set_state.
+  void restore(const SurfaceState& s, std::span<const Contact> contacts);
   /// Returns every vertex to rest, releases contacts and sets time to 0.
   void reset();
 
@@ -156,11 +169,12 @@ class DeformableSurface {
   void field_by_scan(const Contact& c, const Vec3& n);
   void write_stream(Index i);
   void mark_dirty(Index i);
+  static MaterialKey key_of(const Material& m);
   Index intern_material(const Material& m);
-  void rebuild_integrators();
+  void build_integrators(const MaterialArrays& materials);
+  void compact_integrators();
 
   std::shared_ptr<const mesh::SurfaceMesh> mesh_;
-  MaterialArrays materials_;
   SurfaceOptions options_;
   SurfaceState state_;
   std::vector<Contact> contacts_;

@@ -8,6 +8,7 @@ target_sources(palpa_haptics PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/safety.cpp
   ${CMAKE_CURRENT_LIST_DIR}/loop_stats.cpp
   ${CMAKE_CURRENT_LIST_DIR}/loop_core.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/session.cpp
   ${CMAKE_CURRENT_LIST_DIR}/loop.cpp
   ${CMAKE_CURRENT_LIST_DIR}/loop_replay.cpp)
 # Devices are a lower layer (plugin interface and loader); the loop drives them.

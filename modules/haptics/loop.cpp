@@ -16,7 +16,7 @@ namespace palpa::haptics {
 
 namespace {
 
-std::int64_t now_ns() {
+std::int64_t mono_ns() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
@@ -24,17 +24,28 @@ std::int64_t now_ns() {
 
 // Sleeps until the absolute CLOCK_MONOTONIC time `ns`; the last `spin_ns`
 // are busy-waited for a precise start.
-void sleep_until(std::int64_t ns, std::int64_t spin_ns) {
+void mono_sleep_until(std::int64_t ns, std::int64_t spin_ns) {
   const std::int64_t wake = ns - spin_ns;
   timespec ts{static_cast<time_t>(wake / 1'000'000'000), static_cast<long>(wake % 1'000'000'000)};
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
   }
   if (spin_ns > 0)
-    while (now_ns() < ns) {
+    while (mono_ns() < ns) {
 #if defined(__x86_64__) || defined(__i386__)
       __builtin_ia32_pause();  // polite busy-wait
 #endif
     }
+}
+
+class MonotonicClock final : public LoopClock {
+ public:
+  std::int64_t now_ns() override { return mono_ns(); }
+  void sleep_until(std::int64_t ns, std::int64_t spin_ns) override { mono_sleep_until(ns, spin_ns); }
+};
+
+void nap_us(long us) {
+  timespec ts{0, us * 1000};
+  nanosleep(&ts, nullptr);
 }
 
 void pin_to_cpu(int cpu) {
@@ -71,6 +82,11 @@ double max_stiffness(const deform::MaterialArrays& m) {
 
 }  // namespace
 
+LoopClock& monotonic_clock() {
+  static MonotonicClock clock;
+  return clock;
+}
+
 void LoopConfig::validate() const {
   core.validate();
   if (realtime_priority < 1 || realtime_priority > 99)
@@ -90,6 +106,7 @@ std::vector<std::string> describe_warnings(std::uint32_t w) {
   if (w & kWarnRecordDrop) out.push_back("the session recorder did not keep up; samples were lost");
   if (w & kWarnStiffness) out.push_back("a material is stiffer than a device can render stably");
   if (w & kWarnModelLate) out.push_back("the deformation model is late; forces are withheld");
+  if (w & kWarnModelDropped) out.push_back("the deformation model fell behind; steps were dropped");
   return out;
 }
 
@@ -114,17 +131,41 @@ std::vector<std::string> describe_safety_flags(std::uint32_t f) {
 
 HapticLoop::HapticLoop(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::MaterialArrays materials,
                        deform::SurfaceOptions options, LoopConfig config, std::vector<ProbeBinding> probes)
-    : config_(std::move(config)), mesh_(std::move(mesh)), probes_(std::move(probes)) {
+    : config_(std::move(config)) {
   config_.validate();
-  if (!mesh_) throw std::invalid_argument("loop configuration: no surface mesh");
+  if (!mesh) throw std::invalid_argument("loop configuration: no surface mesh");
+  mesh_ = std::move(mesh);
+  options_ = options;
+  if (mesh_->vertex_count() == 0) throw std::invalid_argument("loop configuration: the surface has no vertices");
+  tree_ = std::make_shared<collision::VertexTree>(std::span<const Vec3>(mesh_->positions));
+  init(std::move(materials), std::move(probes));
+}
+
+HapticLoop::HapticLoop(std::shared_ptr<const SessionModel> model, deform::MaterialArrays materials,
+                       LoopConfig config, std::vector<ProbeBinding> probes)
+    : config_(std::move(config)) {
+  if (!model || !model->mesh || !model->tree) throw std::invalid_argument("loop configuration: no model");
+  config_.core = model->config;
+  config_.validate();
+  mesh_ = model->mesh;
+  tree_ = model->tree;
+  options_ = model->options;
+  init(std::move(materials), std::move(probes));
+}
+
+void HapticLoop::init(deform::MaterialArrays materials, std::vector<ProbeBinding> probes) {
+  clock_ = config_.clock ? config_.clock : &monotonic_clock();
   if (materials.size() != mesh_->vertex_count())
     throw std::invalid_argument("loop configuration: " + std::to_string(materials.size()) + " materials for " +
                                 std::to_string(mesh_->vertex_count()) + " vertices");
+  if (probes.size() > kMaxProbes)
+    throw std::invalid_argument("loop configuration: " + std::to_string(probes.size()) + " probes, at most " +
+                                std::to_string(kMaxProbes) + " are supported");
 
   // Probe setups from the devices' specifications.
   std::vector<ProbeSetup> setups;
-  for (std::size_t i = 0; i < probes_.size(); ++i) {
-    ProbeBinding& b = probes_[i];
+  for (std::size_t i = 0; i < probes.size(); ++i) {
+    ProbeBinding& b = probes[i];
     if (b.device == nullptr || !*b.device)
       throw std::invalid_argument("loop configuration: probe " + std::to_string(i) + " has no device");
     if (b.name.empty()) b.name = b.device->label();
@@ -136,49 +177,74 @@ HapticLoop::HapticLoop(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::Ma
     setups.push_back(s);
   }
 
-  // The model: one vertex tree, two identical replicas of the surface.
-  tree_ = std::make_unique<collision::VertexTree>(std::span<const Vec3>(mesh_->positions));
-  replicas_[0] = std::make_unique<deform::DeformableSurface>(mesh_, materials, options);
-  replicas_[1] = std::make_unique<deform::DeformableSurface>(mesh_, std::move(materials), options);
-  core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::move(setups));
+  // The model: two identical replicas of the surface; the core on the tree.
+  const double k = max_stiffness(materials);
+  replicas_[0] = std::make_unique<deform::DeformableSurface>(mesh_, materials, options_);
+  replicas_[1] = std::make_unique<deform::DeformableSurface>(mesh_, std::move(materials), options_);
+  if (setups.empty()) {
+    // A loop may start with no probe: the core needs one setup to build;
+    // free its slot again at once.
+    ProbeSetup placeholder;
+    placeholder.name = "none";
+    core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::vector<ProbeSetup>{placeholder});
+    LoopCommand c;
+    c.kind = LoopCommandKind::RemoveProbe;
+    c.probe = 0;
+    core_->apply(c, 0);
+  } else {
+    core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::move(setups));
+  }
+  for (std::size_t i = 0; i < probes.size(); ++i) {
+    bindings_[i] = probes[i];
+    used_[i] = true;
+    devices_[i] = probes[i].device;
+  }
 
   // Stiffness check: world stiffness k appears as k * scale * force_scale at the device.
-  const double k = max_stiffness(replicas_[0]->materials());
-  for (const auto& s : core_->setups())
-    if (s.spec.force_dof > 0 && s.spec.max_stiffness > 0 &&
-        k * s.mapping.scale * s.mapping.force_scale > s.spec.max_stiffness)
+  for (std::size_t i = 0; i < probes.size(); ++i) {
+    const auto spec = probes[i].device->spec();
+    if (spec.force_dof > 0 && spec.max_stiffness > 0 &&
+        k * probes[i].mapping.scale * probes[i].mapping.force_scale > spec.max_stiffness)
       static_warnings_ |= kWarnStiffness;
+  }
 
   // Lock-free exchange buffers, all allocated now.
-  commands_ = std::make_unique<SpscQueue<LoopCommand>>(256);
+  commands_ = std::make_unique<SpscQueue<Queued>>(256);
+  requests_ = std::make_unique<SpscQueue<DeformRequest>>(64);
   view_ = std::make_unique<TripleBuffer<LoopView>>();
-  contacts_ = std::make_unique<TripleBuffer<ContactSet>>();
   if (config_.record_capacity > 0) {
     tick_records_ = std::make_unique<SpscQueue<TickRecord>>(config_.record_capacity);
     command_records_ = std::make_unique<SpscQueue<CommandRecord>>(std::max<std::size_t>(256, config_.record_capacity / 64));
     deform_records_ = std::make_unique<SpscQueue<DeformRecord>>(config_.record_capacity);
   }
-  const auto s = replicas_[0]->stream();
-  render_stream_.assign(s.begin(), s.end());
+  mailbox_ = std::make_unique<core::SurfaceMailbox>(mesh_->vertex_count());
+  mailbox_->publish_all(replicas_[0]->stream());
   replicas_[0]->take_dirty_ranges();
   replicas_[1]->take_dirty_ranges();
+  contact_scratch_.reserve(kMaxProbes);
 }
 
 HapticLoop::~HapticLoop() { stop(); }
 
+std::size_t HapticLoop::probe_count() const {
+  for (std::size_t i = kMaxProbes; i > 0; --i)
+    if (used_[i - 1]) return i;
+  return 0;
+}
+
 void HapticLoop::start() {
   if (running_.load()) return;
-  for (const auto& b : probes_)
-    if (!b.device->started())
-      throw std::invalid_argument("loop configuration: device " + b.name + " is not started");
+  for (std::size_t i = 0; i < kMaxProbes; ++i)
+    if (used_[i] && !bindings_[i].device->started())
+      throw std::invalid_argument("loop configuration: device " + bindings_[i].name + " is not started");
   stop_.store(false);
   haptic_ready_.store(false);
-  const double t0 = static_cast<double>(now_ns()) * 1e-9;
-  meta_[0].time = meta_[1].time = t0;
+  const double t0 = static_cast<double>(clock_->now_ns()) * 1e-9;
+  if (tick_ == 0) meta_[0].time = meta_[1].time = t0;
   start_time_.store(t0);
   deform_start_time_.store(t0);
   running_.store(true);
-  if (config_.core.deform_rate_hz > 0) deform_thread_ = std::thread([this] { deform_main(); });
+  deform_thread_ = std::thread([this] { deform_main(); });
   haptic_thread_ = std::thread([this] { haptic_main(); });
   while (!haptic_ready_.load(std::memory_order_acquire)) std::this_thread::yield();
 }
@@ -186,43 +252,207 @@ void HapticLoop::start() {
 void HapticLoop::stop() {
   if (!running_.load()) return;
   stop_.store(true);
-  stop_time_.store(static_cast<double>(now_ns()) * 1e-9);
+  clock_->interrupt();
+  stop_time_.store(static_cast<double>(clock_->now_ns()) * 1e-9);
   if (haptic_thread_.joinable()) haptic_thread_.join();
   if (deform_thread_.joinable()) deform_thread_.join();
-  // Bring the replicas level if the deformation thread stopped half-way.
-  if (pending_.valid) {
-    step_replica(pending_.index, pending_.contacts, pending_.dt);
-    replicas_[pending_.index]->take_dirty_ranges();
-    pending_.valid = false;
+  // Requests still queued: make them, so both replicas are level and every
+  // recorded tick's generation exists.
+  DeformRequest r;
+  while (requests_->pop(r)) process(r, true);
+  while (backlog_size_ > 0) {
+    process(backlog_[backlog_head_], true);
+    backlog_head_ = (backlog_head_ + 1) % kBacklog;
+    --backlog_size_;
   }
   running_.store(false);
+  // Commands still queued apply at once.
+  Queued q;
+  while (commands_->pop(q)) apply_now(q, static_cast<double>(clock_->now_ns()) * 1e-9);
   // Zero force, expiring at once.
   PalpaForceCommand zero{};
-  for (const auto& b : probes_)
-    if (b.device->spec().force_dof > 0) b.device->write(zero);
+  for (std::size_t i = 0; i < kMaxProbes; ++i)
+    if (devices_[i] && devices_[i]->spec().force_dof > 0) devices_[i]->write(zero);
 }
 
-void HapticLoop::push_command(const LoopCommand& c) {
-  if (c.probe >= probes_.size())
-    throw std::invalid_argument("loop: probe " + std::to_string(c.probe) + " does not exist (" +
-                                std::to_string(probes_.size()) + " probes)");
+bool HapticLoop::deform_idle() const { return made_.load(std::memory_order_acquire) >= requested_.load(std::memory_order_acquire); }
+
+bool HapticLoop::wait_applied(CommandTicket t, double timeout_s) const {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!applied(t)) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    nap_us(100);
+  }
+  return true;
+}
+
+void HapticLoop::check_slot(std::size_t probe) const {
+  if (probe >= kMaxProbes || !used_[probe])
+    throw std::invalid_argument("loop: probe " + std::to_string(probe) + " does not exist (" +
+                                std::to_string(probe_count()) + " probe slots)");
+}
+
+// Applies a command on the calling thread (the loop is stopped).
+void HapticLoop::apply_now(const Queued& q, double t) {
+  const LoopCommand& c = q.command;
+  if (c.kind == LoopCommandKind::AddProbe && c.probe < kMaxProbes) devices_[c.probe] = q.device;
+  if (c.kind == LoopCommandKind::RemoveProbe && c.probe < kMaxProbes) {
+    if (devices_[c.probe] && devices_[c.probe]->spec().force_dof > 0) devices_[c.probe]->write(PalpaForceCommand{});
+    devices_[c.probe] = nullptr;
+  }
+  core_->apply(c, t);
+  if (command_records_ && !command_records_->push({tick_, t, c})) record_drops_.fetch_add(1, std::memory_order_relaxed);
+  // Model edits reach both replicas at once (no step).
+  if (core_->state().pending.any()) {
+    DeformRequest r;
+    r.edits = core_->state().pending;
+    CoreState s = core_->state();
+    s.pending = DeformEdits{};
+    core_->set_state(s);
+    for (auto& rep : replicas_) {
+      if (r.edits.reset) rep->reset();
+      if (r.edits.material == 1) rep->set_uniform_material(r.edits.uniform);
+      if (r.edits.material == 2 && r.edits.map) rep->set_materials(*r.edits.map);
+    }
+    const auto ranges = replicas_[current_.load()]->take_dirty_ranges();
+    mailbox_->publish(replicas_[current_.load()]->stream(), ranges);
+    replicas_[1 - current_.load()]->take_dirty_ranges();
+  }
+  applied_.store(q.ticket, std::memory_order_release);
+}
+
+CommandTicket HapticLoop::push(const LoopCommand& c, devices::Device* device) {
   std::lock_guard<std::mutex> lock(command_mutex_);
-  if (!commands_->push(c)) throw std::runtime_error("loop: command queue full (is the haptic thread running?)");
+  Queued q{c, device, ++next_ticket_};
+  if (!running_.load()) {
+    apply_now(q, static_cast<double>(clock_->now_ns()) * 1e-9);
+    return q.ticket;
+  }
+  if (!commands_->push(q)) {
+    --next_ticket_;
+    throw std::runtime_error("loop: command queue full (is the haptic thread running?)");
+  }
+  return q.ticket;
 }
 
-void HapticLoop::enable(std::size_t probe) {
-  push_command({LoopCommandKind::Enable, static_cast<std::uint32_t>(probe), {}});
+CommandTicket HapticLoop::enable(std::size_t probe) {
+  check_slot(probe);
+  LoopCommand c;
+  c.kind = LoopCommandKind::Enable;
+  c.probe = static_cast<std::uint32_t>(probe);
+  return push(c);
 }
-void HapticLoop::disable(std::size_t probe) {
-  push_command({LoopCommandKind::Disable, static_cast<std::uint32_t>(probe), {}});
+CommandTicket HapticLoop::disable(std::size_t probe) {
+  check_slot(probe);
+  LoopCommand c;
+  c.kind = LoopCommandKind::Disable;
+  c.probe = static_cast<std::uint32_t>(probe);
+  return push(c);
 }
-void HapticLoop::set_clutch(std::size_t probe, bool engaged) {
-  push_command({engaged ? LoopCommandKind::ClutchOn : LoopCommandKind::ClutchOff, static_cast<std::uint32_t>(probe),
-                {}});
+CommandTicket HapticLoop::set_clutch(std::size_t probe, bool engaged) {
+  check_slot(probe);
+  LoopCommand c;
+  c.kind = engaged ? LoopCommandKind::ClutchOn : LoopCommandKind::ClutchOff;
+  c.probe = static_cast<std::uint32_t>(probe);
+  return push(c);
 }
-void HapticLoop::set_mapping(std::size_t probe, const DeviceMapping& m) {
-  m.validate(probe < probes_.size() ? probes_[probe].name : "probe " + std::to_string(probe));
-  push_command({LoopCommandKind::SetMapping, static_cast<std::uint32_t>(probe), m});
+CommandTicket HapticLoop::set_mapping(std::size_t probe, const DeviceMapping& m) {
+  m.validate(probe < kMaxProbes && used_[probe] ? bindings_[probe].name : "probe " + std::to_string(probe));
+  check_slot(probe);
+  LoopCommand c;
+  c.kind = LoopCommandKind::SetMapping;
+  c.probe = static_cast<std::uint32_t>(probe);
+  c.mapping = m;
+  bindings_[probe].mapping = m;
+  return push(c);
+}
+
+CommandTicket HapticLoop::add_probe(const ProbeBinding& binding, std::size_t& slot) {
+  ProbeBinding b = binding;
+  if (b.device == nullptr || !*b.device) throw std::invalid_argument("loop: the new probe has no device");
+  if (b.name.empty()) b.name = b.device->label();
+  std::size_t free = kMaxProbes;
+  for (std::size_t i = 0; i < kMaxProbes && free == kMaxProbes; ++i)
+    if (!used_[i]) free = i;
+  if (free == kMaxProbes)
+    throw std::invalid_argument("loop: cannot add probe " + b.name + ": the loop drives at most " +
+                                std::to_string(kMaxProbes) + " probes");
+  if (running_.load() && !b.device->started())
+    throw std::invalid_argument("loop: device " + b.name + " is not started");
+  ProbeSetup s;
+  s.name = b.name;
+  s.spec = b.device->spec();
+  s.mapping = b.mapping;
+  s.safety = b.safety;
+  LoopCommand c;
+  c.kind = LoopCommandKind::AddProbe;
+  c.probe = static_cast<std::uint32_t>(free);
+  c.prepared = LoopCore::prepare(s, config_.core);  // throws, nothing changed
+  const auto spec = s.spec;
+  const double k = max_stiffness(replicas_[0]->materials());
+  if (spec.force_dof > 0 && spec.max_stiffness > 0 && k * b.mapping.scale * b.mapping.force_scale > spec.max_stiffness)
+    static_warnings_ |= kWarnStiffness;
+  bindings_[free] = b;
+  used_[free] = true;
+  slot = free;
+  return push(c, b.device);
+}
+
+CommandTicket HapticLoop::remove_probe(std::size_t probe) {
+  check_slot(probe);
+  LoopCommand c;
+  c.kind = LoopCommandKind::RemoveProbe;
+  c.probe = static_cast<std::uint32_t>(probe);
+  used_[probe] = false;
+  bindings_[probe] = ProbeBinding{};
+  return push(c);
+}
+
+CommandTicket HapticLoop::set_shape(const deform::ShapeFunction& shape) {
+  CoreConfig probe_config = config_.core;
+  probe_config.shape = shape;
+  probe_config.validate();
+  LoopCommand c;
+  c.kind = LoopCommandKind::SetShape;
+  c.shape = shape;
+  return push(c);
+}
+
+CommandTicket HapticLoop::set_force(const ForceParams& force) {
+  CoreConfig probe_config = config_.core;
+  probe_config.force = force;
+  probe_config.validate();
+  LoopCommand c;
+  c.kind = LoopCommandKind::SetForce;
+  c.force = force;
+  return push(c);
+}
+
+CommandTicket HapticLoop::set_material(const deform::Material& m) {
+  deform::validate_material(m, "material");
+  LoopCommand c;
+  c.kind = LoopCommandKind::SetMaterial;
+  c.material = m;
+  return push(c);
+}
+
+CommandTicket HapticLoop::set_materials(deform::MaterialArrays materials) {
+  materials.validate(mesh_->vertex_count());
+  auto kept = std::make_shared<const deform::MaterialArrays>(std::move(materials));
+  LoopCommand c;
+  c.kind = LoopCommandKind::SetMaterialMap;
+  c.materials = kept.get();
+  {
+    std::lock_guard<std::mutex> lock(command_mutex_);
+    kept_maps_.push_back(std::move(kept));
+  }
+  return push(c);
+}
+
+CommandTicket HapticLoop::reset_surface() {
+  LoopCommand c;
+  c.kind = LoopCommandKind::ResetSurface;
+  return push(c);
 }
 
 LoopView HapticLoop::view() const {
@@ -235,7 +465,7 @@ LoopStatistics HapticLoop::statistics() const {
   s.nominal_rate_hz = config_.core.rate_hz;
   s.ticks = ticks_.load();
   // Rates over the running time (frozen once stopped).
-  const double now = running_.load() ? static_cast<double>(now_ns()) * 1e-9 : stop_time_.load();
+  const double now = running_.load() ? static_cast<double>(clock_->now_ns()) * 1e-9 : stop_time_.load();
   s.elapsed_s = s.ticks ? now - start_time_.load() : 0.0;
   s.achieved_rate_hz = s.elapsed_s > 0 ? static_cast<double>(s.ticks) / s.elapsed_s : 0.0;
   s.deadline_misses = misses_.load();
@@ -250,7 +480,7 @@ LoopStatistics HapticLoop::statistics() const {
   s.deform_steps = deform_steps_.load();
   const double de = now - deform_start_time_.load();
   s.deform_achieved_hz = de > 0 && s.deform_steps ? static_cast<double>(s.deform_steps) / de : 0.0;
-  s.deform_overruns = deform_overruns_.load();
+  s.deform_overruns = deform_overruns_.load() + deform_drops_.load();
   s.deform_step = summarize(deform_hist_);
   s.realtime = realtime_.load();
   if (haptic_ready_.load(std::memory_order_acquire)) s.realtime_notice = realtime_notice_;
@@ -258,107 +488,62 @@ LoopStatistics HapticLoop::statistics() const {
 }
 
 std::vector<IndexRange> HapticLoop::take_surface_changes(std::vector<float>& stream) {
-  std::lock_guard<std::mutex> lock(render_mutex_);
-  std::vector<IndexRange> ranges;
-  if (render_first_ || stream.size() != render_stream_.size()) {
-    // First call (or a fresh buffer): everything.
-    stream = render_stream_;
-    render_first_ = false;
-    render_ranges_.clear();
-    ranges.push_back({0, static_cast<Index>(render_stream_.size() / 4)});
-    return ranges;
+  const std::size_t n = mesh_->vertex_count();
+  if (stream.size() != 4 * n) {
+    stream.assign(4 * n, 0.0f);
+    mailbox_->mark_all();
   }
-  // Sort and merge the pending ranges, then copy their entries.
-  std::sort(render_ranges_.begin(), render_ranges_.end(),
-            [](const IndexRange& a, const IndexRange& b) { return a.begin < b.begin; });
-  for (const auto& r : render_ranges_) {
-    if (!ranges.empty() && r.begin <= ranges.back().end)
-      ranges.back().end = std::max(ranges.back().end, r.end);
-    else
-      ranges.push_back(r);
-  }
+  const auto ranges = mailbox_->begin_read();
+  const auto src = mailbox_->stream();
   for (const auto& r : ranges)
-    std::copy(render_stream_.begin() + 4 * std::size_t{r.begin}, render_stream_.begin() + 4 * std::size_t{r.end},
+    std::copy(src.begin() + 4 * std::size_t{r.begin}, src.begin() + 4 * std::size_t{r.end},
               stream.begin() + 4 * std::size_t{r.begin});
-  render_ranges_.clear();
-  return ranges;
+  std::vector<IndexRange> out(ranges.begin(), ranges.end());
+  mailbox_->end_read();
+  return out;
 }
 
-// Steps one replica with the given contacts; the published one also feeds
-// the render mirror with the stream entries it changed.
-void HapticLoop::step_replica(int index, const ContactSet& contacts, double dt) {
-  deform::DeformableSurface& s = *replicas_[index];
-  to_contacts(contacts, contact_scratch_);
-  s.set_contacts(contact_scratch_);
-  s.step(dt);
+// Makes one requested step on both replicas: the one the haptic thread is
+// not reading first, published, then the other once the haptic thread has
+// left it. `stopping`: the threads are gone (no waiting).
+void HapticLoop::process(const DeformRequest& r, bool stopping) {
+  const std::int64_t t0 = clock_->now_ns();
+  const int cur = current_.load(std::memory_order_seq_cst);
+  const int other = 1 - cur;
+  apply_deform_request(*replicas_[other], r, contact_scratch_);
+  mailbox_->publish(replicas_[other]->stream(), replicas_[other]->take_dirty_ranges());
+  meta_[other] = {r.generation, r.time};
+  current_.store(other, std::memory_order_seq_cst);
+  if (deform_records_) {
+    DeformRecord rec;
+    rec.generation = r.generation;
+    rec.contacts_tick = r.tick;
+    rec.time = static_cast<double>(clock_->now_ns()) * 1e-9;
+    rec.dt = r.dt;
+    rec.contacts = r.contacts;
+    if (!deform_records_->push(rec)) record_drops_.fetch_add(1, std::memory_order_relaxed);
+  }
+  // Wait until the haptic thread has left the old replica, then bring it level.
+  if (!stopping)
+    while (in_use_.load(std::memory_order_seq_cst) == cur) nap_us(20);
+  apply_deform_request(*replicas_[cur], r, contact_scratch_);
+  replicas_[cur]->take_dirty_ranges();
+  meta_[cur] = meta_[other];
+  deform_hist_.record(clock_->now_ns() - t0);
+  deform_steps_.fetch_add(1, std::memory_order_relaxed);
+  made_.fetch_add(1, std::memory_order_release);
 }
 
 void HapticLoop::deform_main() {
   pin_to_cpu(config_.deform_cpu);
-  const double rate = config_.core.deform_rate_hz;
-  const auto period = static_cast<std::int64_t>(std::llround(1e9 / rate));
-  const double dt = 1.0 / rate;
-  std::uint64_t generation = 0;
-  std::int64_t next = now_ns() + period;
-  deform_start_time_.store(static_cast<double>(now_ns()) * 1e-9);
-
+  deform_start_time_.store(static_cast<double>(clock_->now_ns()) * 1e-9);
+  DeformRequest r;
   while (!stop_.load(std::memory_order_relaxed)) {
-    sleep_until(next, 0);
-    const std::int64_t t0 = now_ns();
-    const ContactSet contacts = contacts_->latest();
-
-    // Step the replica the haptic thread is not using and publish it.
-    const int cur = current_.load(std::memory_order_seq_cst);
-    const int other = 1 - cur;
-    step_replica(other, contacts, dt);
-    {
-      const auto ranges = replicas_[other]->take_dirty_ranges();
-      const auto stream = replicas_[other]->stream();
-      std::lock_guard<std::mutex> lock(render_mutex_);
-      for (const auto& r : ranges) {
-        std::copy(stream.begin() + 4 * std::size_t{r.begin}, stream.begin() + 4 * std::size_t{r.end},
-                  render_stream_.begin() + 4 * std::size_t{r.begin});
-        render_ranges_.push_back(r);
-      }
+    if (!requests_->pop(r)) {
+      nap_us(50);
+      continue;
     }
-    ++generation;
-    const double publish = static_cast<double>(now_ns()) * 1e-9;
-    meta_[other] = {generation, publish};
-    current_.store(other, std::memory_order_seq_cst);
-    if (deform_records_) {
-      DeformRecord rec;
-      rec.generation = generation;
-      rec.contacts_tick = contacts.tick;
-      rec.time = publish;
-      rec.dt = dt;
-      rec.contacts = contacts;
-      if (!deform_records_->push(rec)) record_drops_.fetch_add(1, std::memory_order_relaxed);
-    }
-
-    // Wait until the haptic thread has left the old replica, then bring it level.
-    while (in_use_.load(std::memory_order_seq_cst) == cur && !stop_.load(std::memory_order_relaxed)) {
-      timespec ts{0, 20'000};
-      nanosleep(&ts, nullptr);
-    }
-    if (in_use_.load(std::memory_order_seq_cst) == cur) {
-      // Stopping while the haptic thread still held it: stop() finishes.
-      pending_ = {true, cur, contacts, dt};
-      break;
-    }
-    step_replica(cur, contacts, dt);
-    replicas_[cur]->take_dirty_ranges();
-
-    deform_hist_.record(now_ns() - t0);
-    deform_steps_.fetch_add(1, std::memory_order_relaxed);
-
-    // Keep the phase; periods that passed during an overrun are skipped.
-    next += period;
-    const std::int64_t now = now_ns();
-    if (now > next) {
-      const std::int64_t k = (now - next) / period + 1;
-      next += k * period;
-      deform_overruns_.fetch_add(static_cast<std::uint64_t>(k), std::memory_order_relaxed);
-    }
+    process(r, false);
   }
 }
 
@@ -384,7 +569,7 @@ void HapticLoop::haptic_main() {
   prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
   prefault_stack();
 
-  const std::size_t n = probes_.size();
+  LoopClock& clock = *clock_;
   const auto period = static_cast<std::int64_t>(std::llround(1e9 / config_.core.rate_hz));
   const auto spin = static_cast<std::int64_t>(config_.spin_us * 1e3);
   const auto watchdog = static_cast<std::int64_t>(config_.core.watchdog_periods * static_cast<double>(period));
@@ -392,17 +577,15 @@ void HapticLoop::haptic_main() {
   std::array<ProbeTickInput, kMaxProbes> inputs{};
   std::array<ProbeTickResult, kMaxProbes> results{};
   ContactSet contacts;
-  std::array<bool, kMaxProbes> has_force{};
-  for (std::size_t i = 0; i < n; ++i) has_force[i] = probes_[i].device->spec().force_dof > 0;
   const std::uint32_t base_warnings = static_warnings_ | (realtime_.load() ? 0u : kWarnNoRealtime);
   haptic_ready_.store(true, std::memory_order_release);
 
-  std::uint64_t tick = 0;
-  std::int64_t next = now_ns() + period;
+  std::int64_t next = clock.now_ns() + period;
   std::int64_t prev_start = -1;
   while (!stop_.load(std::memory_order_relaxed)) {
-    sleep_until(next, spin);
-    const std::int64_t start = now_ns();
+    clock.sleep_until(next, spin);
+    if (stop_.load(std::memory_order_relaxed)) break;
+    const std::int64_t start = clock.now_ns();
     const double t = static_cast<double>(start) * 1e-9;
     latency_hist_.record(start - next);
     if (prev_start >= 0) {
@@ -411,17 +594,30 @@ void HapticLoop::haptic_main() {
       if (actual > watchdog) watchdog_trips_.fetch_add(1, std::memory_order_relaxed);
     }
     prev_start = start;
+    const std::uint64_t tick = tick_;
 
     // Commands queued by other threads.
-    LoopCommand cmd;
-    for (int k = 0; k < 16 && commands_->pop(cmd); ++k) {
+    Queued q;
+    for (int k = 0; k < 16 && commands_->pop(q); ++k) {
+      const LoopCommand& cmd = q.command;
+      if (cmd.kind == LoopCommandKind::AddProbe && cmd.probe < kMaxProbes) devices_[cmd.probe] = q.device;
+      if (cmd.kind == LoopCommandKind::RemoveProbe && cmd.probe < kMaxProbes) {
+        if (devices_[cmd.probe] && devices_[cmd.probe]->spec().force_dof > 0)
+          devices_[cmd.probe]->write(PalpaForceCommand{});
+        devices_[cmd.probe] = nullptr;
+      }
       core_->apply(cmd, t);
       if (command_records_ && !command_records_->push({tick, t, cmd}))
         record_drops_.fetch_add(1, std::memory_order_relaxed);
+      applied_.store(q.ticket, std::memory_order_release);
     }
 
     // Read every device.
-    for (std::size_t i = 0; i < n; ++i) inputs[i].read_ok = probes_[i].device->read(inputs[i].sample);
+    const std::size_t n = core_->probe_count();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (devices_[i] == nullptr) continue;
+      inputs[i].read_ok = devices_[i]->read(inputs[i].sample);
+    }
 
     // Take the current model replica (hazard: announce, then re-check).
     int idx;
@@ -430,23 +626,42 @@ void HapticLoop::haptic_main() {
       in_use_.store(idx, std::memory_order_seq_cst);
     } while (current_.load(std::memory_order_seq_cst) != idx);
     const ReplicaMeta meta = meta_[idx];
-    core_->tick(tick, t, *replicas_[idx], meta.time, std::span<const ProbeTickInput>(inputs.data(), n),
-                std::span<ProbeTickResult>(results.data(), n), contacts);
+    const bool due = core_->tick(tick, t, *replicas_[idx], meta.time, std::span<const ProbeTickInput>(inputs.data(), n),
+                                 std::span<ProbeTickResult>(results.data(), n), contacts);
     in_use_.store(-1, std::memory_order_seq_cst);
 
     // Send the forces; each command expires after the watchdog time.
     std::uint32_t union_flags = 0;
     for (std::size_t i = 0; i < n; ++i) {
+      if (devices_[i] == nullptr || !core_->active(i)) continue;
       union_flags |= results[i].flags;
-      if (!has_force[i]) continue;
+      if (devices_[i]->spec().force_dof <= 0) continue;
       PalpaForceCommand fc{};
       for (int a = 0; a < 3; ++a) fc.force[a] = results[i].force_device[a];
       fc.time = t;
       fc.expires_after = expires;
-      probes_[i].device->write(fc);
+      devices_[i]->write(fc);
     }
-    if (config_.core.deform_rate_hz > 0) contacts_->write(contacts);
     if (union_flags & kSafetyModelLate) model_late_.fetch_add(1, std::memory_order_relaxed);
+
+    // The deformation step this tick asked for (the backlog keeps order).
+    while (backlog_size_ > 0 && requests_->push(backlog_[backlog_head_])) {
+      backlog_head_ = (backlog_head_ + 1) % kBacklog;
+      --backlog_size_;
+    }
+    if (due) {
+      requested_.fetch_add(1, std::memory_order_release);
+      if (backlog_size_ > 0 || !requests_->push(core_->request())) {
+        if (backlog_size_ < kBacklog) {
+          backlog_[(backlog_head_ + backlog_size_) % kBacklog] = core_->request();
+          ++backlog_size_;
+        } else {
+          // The model is far behind: this step is dropped (the replay sees it missing).
+          deform_drops_.fetch_add(1, std::memory_order_relaxed);
+          made_.fetch_add(1, std::memory_order_release);
+        }
+      }
+    }
 
     // Publish the view and the record.
     LoopView& v = view_->write_buffer();
@@ -457,6 +672,7 @@ void HapticLoop::haptic_main() {
     v.warnings = base_warnings;
     if (t - last_miss_time_.load(std::memory_order_relaxed) < 1.0) v.warnings |= kWarnDeadlineMiss;
     if (record_drops_.load(std::memory_order_relaxed) > 0) v.warnings |= kWarnRecordDrop;
+    if (deform_drops_.load(std::memory_order_relaxed) > 0) v.warnings |= kWarnModelDropped;
     if (union_flags & kSafetyModelLate) v.warnings |= kWarnModelLate;
     for (std::size_t i = 0; i < n; ++i) v.probes[i] = results[i];
     view_->publish();
@@ -476,10 +692,10 @@ void HapticLoop::haptic_main() {
     }
 
     // Timing: duration, deadline (scheduled start + period), next slot.
-    ++tick;
-    ticks_.store(tick, std::memory_order_relaxed);
-    const std::int64_t end = now_ns();
+    ++tick_;
+    const std::int64_t end = clock.now_ns();
     tick_hist_.record(end - start);
+    ticks_.store(tick_, std::memory_order_release);
     const std::int64_t deadline = next + period;
     if (end > deadline) {
       misses_.fetch_add(1, std::memory_order_relaxed);
@@ -495,8 +711,8 @@ void HapticLoop::haptic_main() {
 
   // Leaving: zero force on every device at once.
   PalpaForceCommand zero{};
-  for (std::size_t i = 0; i < n; ++i)
-    if (has_force[i]) probes_[i].device->write(zero);
+  for (std::size_t i = 0; i < kMaxProbes; ++i)
+    if (devices_[i] && devices_[i]->spec().force_dof > 0) devices_[i]->write(zero);
 }
 
 }  // namespace palpa::haptics

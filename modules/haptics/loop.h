@@ -6,26 +6,39 @@
 // reads every device, runs LoopCore (collision, eq. (4) force, safety) and
 // sends the forces; it never allocates, locks, does I/O or throws.
 //
-// Deformation integration runs on its own thread at its own rate. It steps
-// two replicas of the surface in turn: it steps the one the haptic thread is
-// not reading, publishes it (atomic index), waits until the haptic thread has
-// left the other one, and brings that one level with the same step. The
-// haptic thread therefore always reads a complete, unchanging model and never
-// waits; the price is two steps per generation.
+// Deformation runs on its own thread, driven by the ticks: the tick that
+// the schedule (CoreConfig::deform_rate_hz) makes due sends a DeformRequest
+// (its contacts and any pending edits); the deformation thread applies it to
+// the replica the haptic thread is not reading, publishes it (atomic index),
+// waits until the haptic thread has left the other one, and brings that one
+// level with the same request. The haptic thread therefore always reads a
+// complete, unchanging model and never waits. The two halves are exactly
+// Session's (session.h); with every request made before the next tick (a
+// ManualClock test, or an unloaded machine) a live run equals Session::step.
+//
+// Every change to the running session (enable, clutch, mapping, probe add
+// and remove, shape function, force parameters, materials, reset) is a
+// LoopCommand applied at a tick boundary and recorded with its tick; the
+// loop is never rebuilt for one, so the dent and the other probes stay.
 //
 // Exchange with other threads:
 //   - view(): the latest per-probe state, through a lock-free triple buffer;
 //   - statistics(): rate, tick duration / period jitter percentiles, misses;
-//   - take_surface_changes(): the (nx, ny, nz, h) stream entries changed
-//     since the last call, for the renderer (deformation thread <-> render
-//     thread, mutex; the haptic thread is not involved);
+//   - surface(): the core::SurfaceMailbox with the (nx, ny, nz, h) stream
+//     changes (bounded memory; the deformation thread never waits for it);
 //   - tick_records(), command_records(), deform_records(): lock-free SPSC
-//     queues carrying every device sample, every force and every model step
-//     for the session recorder; LoopReplay re-runs them bit for bit.
+//     queues carrying every device sample, every force, every command and
+//     every model step for the session recorder; LoopReplay re-runs them bit
+//     for bit.
+//
+// Time comes from a LoopClock: the monotonic clock by default, or a test's
+// ManualClock so threaded tests advance the loop tick by tick.
 
 #include "devices/device.h"
+#include "core/surface_mailbox.h"
 #include "haptics/loop_core.h"
 #include "haptics/loop_stats.h"
+#include "haptics/session.h"
 #include "haptics/spsc_queue.h"
 #include "haptics/triple_buffer.h"
 
@@ -38,6 +51,22 @@
 
 namespace palpa::haptics {
 
+/// The loop's source of time, ns on one monotonic scale. The haptic thread
+/// calls only these two; a real clock neither allocates nor locks.
+class LoopClock {
+ public:
+  virtual ~LoopClock() = default;
+  virtual std::int64_t now_ns() = 0;
+  /// Returns once now_ns() >= ns; the last spin_ns may be busy-waited.
+  virtual void sleep_until(std::int64_t ns, std::int64_t spin_ns) = 0;
+  /// Makes a sleep_until in progress return early (HapticLoop::stop calls
+  /// it; a real clock's sleeps are short enough to need nothing).
+  virtual void interrupt() {}
+};
+
+/// CLOCK_MONOTONIC with clock_nanosleep(TIMER_ABSTIME) (the default clock).
+LoopClock& monotonic_clock();
+
 /// Live-loop settings on top of CoreConfig.
 struct LoopConfig {
   CoreConfig core;
@@ -49,6 +78,8 @@ struct LoopConfig {
   /// Items per recorder queue; 0 (default): no recording. A recorder sets it
   /// (e.g. 1 << 16) and drains the queues often enough (LoopRecording::drain).
   std::size_t record_capacity = 0;
+  /// Time source (not owned; must outlive the loop); null: monotonic_clock().
+  LoopClock* clock = nullptr;
 
   /// Throws std::invalid_argument naming the bad field.
   void validate() const;
@@ -69,6 +100,7 @@ enum LoopWarning : std::uint32_t {
   kWarnRecordDrop = 1u << 2,      ///< the recorder did not keep up
   kWarnStiffness = 1u << 3,       ///< a material is stiffer than a device can render stably
   kWarnModelLate = 1u << 4,       ///< the deformation model is late (forces withheld)
+  kWarnModelDropped = 1u << 5,    ///< deformation steps were dropped (the model fell behind)
 };
 
 /// English texts of the warning bits set in `warnings`.
@@ -105,46 +137,85 @@ struct CommandRecord {
   LoopCommand command;
 };
 
-/// One deformation step: generation g was made from the contacts of tick
-/// `contacts_tick` with time step dt and published at `time`.
+/// One deformation step: generation g was made from the request of tick
+/// `contacts_tick` (its contacts and edits) with time step dt and published
+/// at `time`. A generation missing from the records was dropped.
 struct DeformRecord {
   std::uint64_t generation = 0;
   std::uint64_t contacts_tick = 0;
-  double time = 0;   ///< s
+  double time = 0;   ///< s, wall time of the publication
   double dt = 0;     ///< s
   ContactSet contacts;
 };
 
+/// A handle on a queued command: HapticLoop::applied() says when the
+/// haptic thread has applied it.
+using CommandTicket = std::uint64_t;
+
 class HapticLoop {
  public:
-  /// Builds the vertex tree and two surface replicas. Throws
+  /// Builds the model (vertex tree) and two surface replicas. Throws
   /// std::invalid_argument for a bad configuration or binding.
   HapticLoop(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::MaterialArrays materials,
              deform::SurfaceOptions options, LoopConfig config, std::vector<ProbeBinding> probes);
+  /// The same on a model built before (shares its tree; config.core is
+  /// replaced by model->config).
+  HapticLoop(std::shared_ptr<const SessionModel> model, deform::MaterialArrays materials, LoopConfig config,
+             std::vector<ProbeBinding> probes);
   ~HapticLoop();
   HapticLoop(const HapticLoop&) = delete;
   HapticLoop& operator=(const HapticLoop&) = delete;
 
   /// Starts the deformation and haptic threads (the devices must be started).
+  /// A loop stopped before restarts where it stopped (same surface, same probes).
   void start();
   /// Stops both threads and commands zero force to every device.
   void stop();
   bool running() const { return running_.load(); }
 
-  /// Queued commands, applied at the start of the next tick. Throw
-  /// std::invalid_argument for a bad probe index or mapping.
-  void enable(std::size_t probe);
-  void disable(std::size_t probe);
-  void set_clutch(std::size_t probe, bool engaged);
-  void set_mapping(std::size_t probe, const DeviceMapping& mapping);
+  /// Queued commands, applied at the start of the next tick (at once when
+  /// the loop is not running). Throw std::invalid_argument for a bad probe
+  /// slot, mapping, material or shape, naming it.
+  CommandTicket enable(std::size_t probe);
+  CommandTicket disable(std::size_t probe);
+  CommandTicket set_clutch(std::size_t probe, bool engaged);
+  CommandTicket set_mapping(std::size_t probe, const DeviceMapping& mapping);
+  /// Binds a started device to a free slot (output disabled until enable());
+  /// returns the slot through `slot`. Throws std::invalid_argument when the
+  /// loop is full or the binding is bad; nothing changes then.
+  CommandTicket add_probe(const ProbeBinding& binding, std::size_t& slot);
+  /// Frees a slot; its device gets zero force and is not read once
+  /// applied(ticket) (only then may the caller stop or destroy it).
+  CommandTicket remove_probe(std::size_t probe);
+  /// Shape function of the contacts from the next tick on.
+  CommandTicket set_shape(const deform::ShapeFunction& shape);
+  /// Friction, slip speed and force clamp of eq. (4) from the next tick on.
+  CommandTicket set_force(const ForceParams& force);
+  /// Every vertex gets material m at the next deformation step (O(1) on a
+  /// uniform surface).
+  CommandTicket set_material(const deform::Material& m);
+  /// A per-vertex material map (kept alive by the loop) at the next deformation step.
+  CommandTicket set_materials(deform::MaterialArrays materials);
+  /// Surface back to rest at the next deformation step; contacts start afresh.
+  CommandTicket reset_surface();
+  /// True once the haptic thread has applied the command (or at once when stopped).
+  bool applied(CommandTicket t) const { return applied_.load(std::memory_order_acquire) >= t; }
+  /// Waits (sleeping, real time) until applied(t) or `timeout_s` passed.
+  bool wait_applied(CommandTicket t, double timeout_s) const;
 
   /// The latest published state.
   LoopView view() const;
   LoopStatistics statistics() const;
+  /// Ticks made so far.
+  std::uint64_t ticks() const { return ticks_.load(std::memory_order_acquire); }
+  /// True when no deformation request waits (every requested step is made).
+  bool deform_idle() const;
 
+  /// The stream changes for the view (one reader thread).
+  core::SurfaceMailbox& surface_changes() { return *mailbox_; }
   /// Copies the stream entries changed since the last call into `stream`
   /// (resized to 4 floats per vertex; the first call copies everything) and
-  /// returns their ranges.
+  /// returns their ranges (whole blocks of SurfaceMailbox::kBlock vertices).
   std::vector<IndexRange> take_surface_changes(std::vector<float>& stream);
 
   SpscQueue<TickRecord>* tick_records() { return tick_records_.get(); }
@@ -154,24 +225,43 @@ class HapticLoop {
   /// Everything LoopReplay needs to re-run a recorded session.
   const std::vector<ProbeSetup>& setups() const { return core_->setups(); }
   const LoopConfig& config() const { return config_; }
-  std::size_t probe_count() const { return probes_.size(); }
+  /// Highest occupied slot + 1.
+  std::size_t probe_count() const;
   const collision::VertexTree& tree() const { return *tree_; }
   /// The model as the haptic thread sees it now; use it only while the loop
   /// is stopped (both replicas are level then).
   const deform::DeformableSurface& surface() const { return *replicas_[current_.load()]; }
+  /// The core's state (probe memories, filters...); only while stopped.
+  const CoreState& core_state() const { return core_->state(); }
 
  private:
+  struct Queued {
+    LoopCommand command;
+    devices::Device* device = nullptr;  // AddProbe
+    CommandTicket ticket = 0;
+  };
+  void init(deform::MaterialArrays materials, std::vector<ProbeBinding> probes);
   void haptic_main();
   void deform_main();
-  void push_command(const LoopCommand& c);
-  void step_replica(int index, const ContactSet& contacts, double dt);
+  CommandTicket push(const LoopCommand& c, devices::Device* device = nullptr);
+  void apply_now(const Queued& q, double t);
+  void check_slot(std::size_t probe) const;
+  void process(const DeformRequest& r, bool stopping);
 
   LoopConfig config_;
+  LoopClock* clock_ = nullptr;
   std::shared_ptr<const mesh::SurfaceMesh> mesh_;
-  std::unique_ptr<collision::VertexTree> tree_;
+  std::shared_ptr<const collision::VertexTree> tree_;
+  deform::SurfaceOptions options_;
   std::unique_ptr<deform::DeformableSurface> replicas_[2];
   std::unique_ptr<LoopCore> core_;
-  std::vector<ProbeBinding> probes_;
+
+  // Control side: the bindings by slot (names for messages) and kept maps.
+  std::array<ProbeBinding, kMaxProbes> bindings_{};
+  std::array<bool, kMaxProbes> used_{};
+  std::vector<std::shared_ptr<const deform::MaterialArrays>> kept_maps_;
+  // Haptic side: the device of each slot (null: free).
+  std::array<devices::Device*, kMaxProbes> devices_{};
 
   // Replica exchange (see the file comment).
   struct ReplicaMeta {
@@ -187,37 +277,37 @@ class HapticLoop {
   std::atomic<bool> stop_{false};
   std::thread haptic_thread_, deform_thread_;
   std::atomic<bool> haptic_ready_{false};
+  std::uint64_t tick_ = 0;  // next tick number (haptic thread; persists across restarts)
 
   // Commands: many producers (mutex on their side), the haptic thread pops.
   std::mutex command_mutex_;
-  std::unique_ptr<SpscQueue<LoopCommand>> commands_;
+  std::unique_ptr<SpscQueue<Queued>> commands_;
+  CommandTicket next_ticket_ = 0;
+  std::atomic<CommandTicket> applied_{0};
+
+  // Haptic thread -> deformation thread: requests; a small backlog holds
+  // those the queue could not take.
+  std::unique_ptr<SpscQueue<DeformRequest>> requests_;
+  static constexpr std::size_t kBacklog = 16;
+  std::array<DeformRequest, kBacklog> backlog_{};
+  std::size_t backlog_head_ = 0, backlog_size_ = 0;
+  std::atomic<std::uint64_t> requested_{0}, made_{0};
 
   // Haptic thread -> others.
   std::unique_ptr<TripleBuffer<LoopView>> view_;
   mutable std::mutex view_mutex_;  // serialises readers only
-  std::unique_ptr<TripleBuffer<ContactSet>> contacts_;
   std::unique_ptr<SpscQueue<TickRecord>> tick_records_;
   std::unique_ptr<SpscQueue<CommandRecord>> command_records_;
   std::unique_ptr<SpscQueue<DeformRecord>> deform_records_;
 
-  // Deformation thread -> render thread.
-  std::mutex render_mutex_;
-  std::vector<float> render_stream_;
-  std::vector<IndexRange> render_ranges_;
-  bool render_first_ = true;
+  // Deformation thread -> view.
+  std::unique_ptr<core::SurfaceMailbox> mailbox_;
   std::vector<deform::Contact> contact_scratch_;
-  struct PendingCatchUp {
-    bool valid = false;
-    int index = 0;
-    ContactSet contacts;
-    double dt = 0;
-  };
-  PendingCatchUp pending_;  // written by the deformation thread before it exits
 
   // Statistics (written by the threads, read by anyone).
   DurationHistogram tick_hist_, jitter_hist_, latency_hist_, deform_hist_;
   std::atomic<std::uint64_t> ticks_{0}, misses_{0}, skipped_{0}, watchdog_trips_{0}, model_late_{0},
-      record_drops_{0}, deform_steps_{0}, deform_overruns_{0};
+      record_drops_{0}, deform_steps_{0}, deform_overruns_{0}, deform_drops_{0};
   std::atomic<double> start_time_{0}, stop_time_{0}, last_miss_time_{-1e9}, deform_start_time_{0};
   std::atomic<bool> realtime_{false};
   std::string realtime_notice_;  // written before haptic_ready_, read after

@@ -53,6 +53,34 @@ void to_contacts(const ContactSet& set, std::vector<deform::Contact>& out) {
   }
 }
 
+void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& r,
+                          std::vector<deform::Contact>& scratch) {
+  if (r.edits.reset) surface.reset();
+  if (r.edits.material == 1) surface.set_uniform_material(r.edits.uniform);
+  if (r.edits.material == 2 && r.edits.map != nullptr) surface.set_materials(*r.edits.map);
+  to_contacts(r.contacts, scratch);
+  surface.set_contacts(scratch);
+  if (r.dt > 0) surface.step(r.dt);
+}
+
+PreparedProbe LoopCore::prepare(ProbeSetup s, const CoreConfig& config) {
+  s.mapping.validate(s.name);
+  if (s.spec.force_dof > 0) {
+    if (!(std::isfinite(s.spec.max_force) && s.spec.max_force > 0))
+      throw std::invalid_argument("device " + s.name + " declares force output but no valid max_force");
+    if (s.safety.max_force == 0) s.safety.max_force = s.spec.max_force;
+    s.safety.max_force = std::min(s.safety.max_force, s.spec.max_force);
+  } else if (s.safety.max_force == 0) {
+    s.safety.max_force = config.force.max_force;  // no output; the value only has to be valid
+  }
+  s.safety.validate(s.name);
+  PreparedProbe p;
+  p.spec = s.spec;
+  p.safety = SafetyFilter(s.safety, config.period());
+  p.mapping = ClutchedMapping(s.mapping);
+  return p;
+}
+
 LoopCore::LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& mesh, const CoreConfig& config,
                    std::vector<ProbeSetup> probes)
     : tree_(tree), config_(config), setups_(std::move(probes)) {
@@ -64,25 +92,18 @@ LoopCore::LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& m
   if (mesh.vertex_count() == 0) throw std::invalid_argument("loop configuration: the surface has no vertices");
 
   // Resolve each probe's force limit from its device and check everything.
-  for (auto& s : setups_) {
-    s.mapping.validate(s.name);
-    if (s.spec.force_dof > 0) {
-      if (!(std::isfinite(s.spec.max_force) && s.spec.max_force > 0))
-        throw std::invalid_argument("device " + s.name + " declares force output but no valid max_force");
-      if (s.safety.max_force == 0) s.safety.max_force = s.spec.max_force;
-      s.safety.max_force = std::min(s.safety.max_force, s.spec.max_force);
-    } else if (s.safety.max_force == 0) {
-      s.safety.max_force = config_.force.max_force;  // no output; the value only has to be valid
-    }
-    s.safety.validate(s.name);
-    safety_.emplace_back(s.safety, config_.period());
-    ProbeState st;
-    st.mapping = ClutchedMapping(s.mapping);
-    state_.push_back(st);
+  for (std::size_t i = 0; i < setups_.size(); ++i) {
+    const PreparedProbe p = prepare(setups_[i], config_);
+    setups_[i].safety = p.safety.limits();
+    CoreProbeState& st = state_.probes[i];
+    st.active = true;
+    st.spec = p.spec;
+    st.safety = p.safety;
+    st.mapping = p.mapping;
   }
-  memory_.resize(setups_.size());
-  probe_inputs_.resize(setups_.size());
-  probe_outputs_.resize(setups_.size());
+  state_.force = config_.force;
+  state_.shape = config_.shape;
+  step_fraction_ = config_.deform_rate_hz / config_.rate_hz;
 
   // Positions farther than `margin` from the surface's box cannot touch it:
   // they are clamped onto the enlarged box so that collision never sees an
@@ -98,37 +119,77 @@ LoopCore::LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& m
   parking_ = range_hi_;
 }
 
+std::size_t LoopCore::probe_count() const {
+  for (std::size_t i = kMaxProbes; i > 0; --i)
+    if (state_.probes[i - 1].active) return i;
+  return 0;
+}
+
 void LoopCore::apply(const LoopCommand& c, double t) noexcept {
-  if (c.probe >= setups_.size()) return;
-  auto& st = state_[c.probe];
   switch (c.kind) {
-    case LoopCommandKind::Enable: safety_[c.probe].enable(t); break;
-    case LoopCommandKind::Disable: safety_[c.probe].disable(); break;
+    case LoopCommandKind::SetShape: state_.shape = c.shape; return;
+    case LoopCommandKind::SetForce: state_.force = c.force; return;
+    case LoopCommandKind::SetMaterial:
+      state_.pending.material = 1;
+      state_.pending.uniform = c.material;
+      state_.pending.map = nullptr;
+      return;
+    case LoopCommandKind::SetMaterialMap:
+      if (c.materials == nullptr) return;
+      state_.pending.material = 2;
+      state_.pending.map = c.materials;
+      return;
+    case LoopCommandKind::ResetSurface:
+      state_.pending.reset = true;
+      for (auto& p : state_.probes) p.memory = ProbeMemory{};  // every contact starts afresh
+      return;
+    default: break;
+  }
+  if (c.probe >= kMaxProbes) return;
+  CoreProbeState& st = state_.probes[c.probe];
+  if (c.kind == LoopCommandKind::AddProbe) {
+    st = CoreProbeState{};
+    st.active = true;
+    st.spec = c.prepared.spec;
+    st.safety = c.prepared.safety;
+    st.mapping = c.prepared.mapping;
+    return;
+  }
+  if (!st.active) return;
+  switch (c.kind) {
+    case LoopCommandKind::Enable: st.safety.enable(t); break;
+    case LoopCommandKind::Disable: st.safety.disable(); break;
     case LoopCommandKind::ClutchOn: st.clutch_command = true; break;
     case LoopCommandKind::ClutchOff: st.clutch_command = false; break;
     case LoopCommandKind::SetMapping: st.mapping.set_mapping(c.mapping); break;
+    case LoopCommandKind::RemoveProbe: st = CoreProbeState{}; break;
+    default: break;
   }
 }
 
-void LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
+bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
                     std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
                     ContactSet& contacts) noexcept {
-  const std::size_t n = setups_.size();
+  const std::size_t n = std::min({probe_count(), inputs.size(), results.size()});
   const double period = config_.period();
+  state_.next_tick = tick + 1;
 
   // Watchdogs: the loop itself late, or the deformation model too old.
   std::uint32_t common = 0;
-  if (have_last_tick_ && !(t - last_tick_time_ <= config_.watchdog_periods * period)) common |= kSafetyLoopLate;
+  if (state_.have_last_tick && !(t - state_.last_tick_time <= config_.watchdog_periods * period))
+    common |= kSafetyLoopLate;
   if (config_.deform_rate_hz > 0 && !(t - model_time <= config_.model_timeout_periods / config_.deform_rate_hz))
     common |= kSafetyModelLate;
-  last_tick_time_ = t;
-  have_last_tick_ = true;
+  state_.last_tick_time = t;
+  state_.have_last_tick = true;
 
   // Per probe: check the sample, map it, estimate the velocity.
   std::array<std::uint32_t, kMaxProbes> cond{};
+  std::size_t dense = 0;
   for (std::size_t i = 0; i < n; ++i) {
+    CoreProbeState& st = state_.probes[i];
+    if (!st.active) continue;
     const PalpaDeviceSample& s = inputs[i].sample;
-    ProbeState& st = state_[i];
     std::uint32_t c = common;
     if (!inputs[i].read_ok || (s.status & PALPA_STATUS_FAULT)) c |= kSafetyDeviceFault;
     if ((s.status & PALPA_STATUS_NOT_READY) || !(s.status & PALPA_STATUS_VALID)) c |= kSafetyNotReady;
@@ -149,7 +210,7 @@ void LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     const bool usable = !(c & (kSafetyBadInput | kSafetyDeviceFault | kSafetyNotReady));
     if (usable) {
       // A jump farther than max_jump within one tick is a glitch, not a motion.
-      if (st.have_world && !((world - st.world).norm() <= safety_[i].limits().max_jump)) {
+      if (st.have_world && !((world - st.world).norm() <= st.safety.limits().max_jump)) {
         c |= kSafetyJump;
         st.velocity.setZero();
         st.have_sample = false;
@@ -173,21 +234,27 @@ void LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
       st.have_world = true;
     }
     cond[i] = c;
-    probe_inputs_[i].position = st.have_world ? st.world : parking_;
-    probe_inputs_[i].velocity = st.velocity;
+    probe_inputs_[dense].position = st.have_world ? st.world : parking_;
+    probe_inputs_[dense].velocity = st.velocity;
+    memory_[dense] = st.memory;
+    slot_of_[dense] = static_cast<std::uint8_t>(i);
+    ++dense;
   }
 
   // Collision and eq. (4) force for every probe (section III.C, III.E).
-  haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), n),
-              std::span<ProbeMemory>(memory_.data(), n), std::span<ProbeOutput>(probe_outputs_.data(), n),
-              config_.force, config_.shape);
+  haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
+              std::span<ProbeMemory>(memory_.data(), dense), std::span<ProbeOutput>(probe_outputs_.data(), dense),
+              state_.force, state_.shape);
 
   // Safety per device, results, and the contacts for the deformation model.
   contacts.tick = tick;
   contacts.count = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const ProbeOutput& out = probe_outputs_[i];
-    ProbeState& st = state_[i];
+  for (std::size_t i = 0; i < n; ++i) results[i] = ProbeTickResult{};
+  for (std::size_t d = 0; d < dense; ++d) {
+    const std::size_t i = slot_of_[d];
+    const ProbeOutput& out = probe_outputs_[d];
+    CoreProbeState& st = state_.probes[i];
+    st.memory = memory_[d];
     ProbeTickResult& r = results[i];
     const std::uint32_t c = cond[i];
     const bool input_ok = !(c & (kSafetyBadInput | kSafetyDeviceFault | kSafetyNotReady | kSafetyStale | kSafetyJump));
@@ -195,11 +262,11 @@ void LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     const auto& mapping = st.mapping.mapping();
 
     r.sample = inputs[i].sample;
-    r.world = to_triple(probe_inputs_[i].position);
+    r.world = to_triple(probe_inputs_[d].position);
     r.velocity = to_triple(st.velocity);
-    if (setups_[i].spec.force_dof > 0) {
+    if (st.spec.force_dof > 0) {
       std::uint32_t flags = 0;
-      const Vec3 device = safety_[i].apply(mapping.force_to_device(out.force), c, t, flags);
+      const Vec3 device = st.safety.apply(mapping.force_to_device(out.force), c, t, flags);
       r.force_device = to_triple(device);
       r.force_world = to_triple(mapping.force_to_world(device));
       r.flags = flags;
@@ -215,9 +282,9 @@ void LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     r.contact_normal = to_triple(out.surface.normal);
     r.depth = out.height.depth;
     r.normal_reaction = std::isfinite(out.normal_reaction) ? out.normal_reaction : 0.0;
-    r.enabled = safety_[i].enabled() ? 1 : 0;
+    r.enabled = st.safety.enabled() ? 1 : 0;
     r.clutched = st.mapping.engaged() ? 1 : 0;
-    r.fault = static_cast<std::uint8_t>(safety_[i].fault());
+    r.fault = static_cast<std::uint8_t>(st.safety.fault());
 
     if (touching && contacts.count < kMaxProbes) {
       ContactRecord& cr = contacts.contacts[contacts.count++];
@@ -228,6 +295,31 @@ void LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
       cr.shape = out.contact.shape;
     }
   }
+
+  // The deformation schedule: deform_rate_hz / rate_hz steps per tick. With
+  // no deformation, pending edits still reach the surface (dt = 0).
+  bool due = false;
+  double dt = 0;
+  if (config_.deform_rate_hz > 0) {
+    state_.deform_phase += step_fraction_;
+    if (state_.deform_phase >= 1.0) {
+      state_.deform_phase -= 1.0;
+      due = true;
+      dt = 1.0 / config_.deform_rate_hz;
+    }
+  } else {
+    due = state_.pending.any();
+  }
+  if (due) {
+    request_.generation = ++state_.generations;
+    request_.tick = tick;
+    request_.time = t;
+    request_.dt = dt;
+    request_.contacts = contacts;
+    request_.edits = state_.pending;
+    state_.pending = DeformEdits{};
+  }
+  return due;
 }
 
 }  // namespace palpa::haptics

@@ -57,19 +57,41 @@ struct ProbeSetup {
   SafetyLimits safety;       ///< max_force 0: use the device's spec.max_force
 };
 
-/// A command from another thread, applied at the start of a tick.
+/// A probe checked and resolved for the loop (LoopCore::prepare): plain
+/// data, so adding it at a tick boundary copies without allocating.
+struct PreparedProbe {
+  PalpaDeviceSpec spec{};
+  SafetyFilter safety;       ///< limits resolved from the device's max_force, disabled
+  ClutchedMapping mapping;
+};
+
+/// A command from another thread, applied at the start of a tick. Every
+/// change to a running session is one of these, so it is recorded with the
+/// tick it took effect at and a replay applies it at the same tick.
 enum class LoopCommandKind : std::uint8_t {
   Enable = 0,      ///< enable force output with a ramp-in; clears a latched fault
   Disable = 1,
   ClutchOn = 2,    ///< engage the clutch (as if the clutch button were held)
   ClutchOff = 3,
   SetMapping = 4,  ///< replace the mapping (validated before it is queued)
+  AddProbe = 5,    ///< occupy slot `probe` with `prepared` (output disabled until Enable)
+  RemoveProbe = 6, ///< free slot `probe` (its contact is released)
+  SetShape = 7,    ///< shape function of the contacts from this tick on
+  SetForce = 8,    ///< eq. (4) parameters from this tick on
+  SetMaterial = 9, ///< every vertex gets `material` at the next deformation step
+  SetMaterialMap = 10, ///< per-vertex `materials` (kept alive by the sender) at the next deformation step
+  ResetSurface = 11,   ///< surface back to rest at the next deformation step; contacts released
 };
 
 struct LoopCommand {
   LoopCommandKind kind = LoopCommandKind::Disable;
   std::uint32_t probe = 0;
   DeviceMapping mapping;   ///< SetMapping only
+  PreparedProbe prepared;  ///< AddProbe only
+  deform::ShapeFunction shape;  ///< SetShape only
+  ForceParams force;            ///< SetForce only
+  deform::Material material;    ///< SetMaterial only
+  const deform::MaterialArrays* materials = nullptr;  ///< SetMaterialMap only; must outlive the session
 };
 
 /// What one tick read from one device.
@@ -119,54 +141,117 @@ struct ContactSet {
 /// Converts a contact set for DeformableSurface::set_contacts.
 void to_contacts(const ContactSet& set, std::vector<deform::Contact>& out);
 
+/// Model edits that wait for the next deformation step.
+struct DeformEdits {
+  bool reset = false;                 ///< surface to rest before the step
+  std::uint8_t material = 0;          ///< 0: none, 1: `uniform`, 2: `map`
+  deform::Material uniform;
+  const deform::MaterialArrays* map = nullptr;
+  bool any() const { return reset || material != 0; }
+};
+
+/// One deformation step, asked for by the tick whose contacts it uses. The
+/// haptic ticks make them on a fixed schedule (CoreConfig::deform_rate_hz
+/// against rate_hz), so the sequence of steps depends only on the ticks.
+struct DeformRequest {
+  std::uint64_t generation = 0;  ///< the surface generation this step makes (1, 2, ...)
+  std::uint64_t tick = 0;        ///< the tick whose contacts it uses
+  double time = 0;               ///< s, that tick's time
+  double dt = 0;                 ///< s, the step (0: edits only, no integration)
+  ContactSet contacts;
+  DeformEdits edits;             ///< applied before the step
+};
+
+/// Applies a request to a surface: edits, contacts, step. `scratch` keeps
+/// its capacity between calls. Throws only what the surface's edits throw
+/// for bad materials (they were validated before they were queued).
+void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& request,
+                          std::vector<deform::Contact>& scratch);
+
+/// Everything one probe slot of the core remembers between ticks.
+struct CoreProbeState {
+  bool active = false;
+  PalpaDeviceSpec spec{};
+  SafetyFilter safety;
+  ClutchedMapping mapping;
+  bool clutch_command = false;
+  bool have_world = false;
+  Vec3 world = Vec3::Zero();          ///< last valid probe position, m
+  Vec3 velocity = Vec3::Zero();       ///< filtered, m/s
+  std::uint64_t last_sequence = 0;
+  double last_sample_time = 0;        ///< s
+  Vec3 last_sample_world = Vec3::Zero();
+  bool have_sample = false;
+  ProbeMemory memory;                 ///< collision cursor and contact hysteresis
+};
+
+/// The whole mutable state of a LoopCore: plain, copyable data. A copy is a
+/// snapshot; LoopCore::set_state restores it exactly.
+struct CoreState {
+  std::array<CoreProbeState, kMaxProbes> probes{};
+  ForceParams force;                  ///< eq. (4) parameters in force now
+  deform::ShapeFunction shape;        ///< shape function given to contacts now
+  double last_tick_time = 0;          ///< s
+  bool have_last_tick = false;
+  std::uint64_t next_tick = 0;        ///< the tick number tick() expects next
+  double deform_phase = 0;            ///< deformation steps owed, in steps (0 .. 1)
+  std::uint64_t generations = 0;      ///< deformation steps requested so far
+  DeformEdits pending;                ///< edits waiting for the next request
+};
+
 class LoopCore {
  public:
   /// `tree` and `mesh` must outlive the core. Throws std::invalid_argument
-  /// for a bad configuration, too many probes or bad mappings/limits.
+  /// for a bad configuration, too many probes or bad mappings/limits. The
+  /// probes take slots 0 .. probes.size() - 1 with output disabled.
   LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& mesh, const CoreConfig& config,
            std::vector<ProbeSetup> probes);
 
-  std::size_t probe_count() const { return setups_.size(); }
+  /// Checks and resolves a probe for an AddProbe command. Throws
+  /// std::invalid_argument naming the probe and the bad field.
+  static PreparedProbe prepare(ProbeSetup setup, const CoreConfig& config);
+
+  /// Highest occupied slot + 1: the length of the inputs and results spans.
+  std::size_t probe_count() const;
+  /// True when slot i holds a probe.
+  bool active(std::size_t i) const { return i < kMaxProbes && state_.probes[i].active; }
   const CoreConfig& config() const { return config_; }
+  /// The probes the core was built with (resolved), for a replay.
   const std::vector<ProbeSetup>& setups() const { return setups_; }
   /// The limits actually applied to probe i (max_force resolved from the spec).
-  const SafetyLimits& limits(std::size_t i) const { return safety_[i].limits(); }
+  const SafetyLimits& limits(std::size_t i) const { return state_.probes[i].safety.limits(); }
 
   /// Applies a command at time t (s). Out-of-range probes are ignored.
   void apply(const LoopCommand& command, double t) noexcept;
 
   /// One tick at time t (s) against `surface` (the model generation in use,
   /// published at model_time, s). `inputs` and `results` hold probe_count()
-  /// entries; `contacts` receives the contacts for the deformation model.
-  void tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
+  /// entries (a free slot's input is ignored, its result cleared);
+  /// `contacts` receives the contacts for the deformation model. Returns
+  /// true when this tick asks for a deformation step (see request()).
+  bool tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
             std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
             ContactSet& contacts) noexcept;
+  /// The deformation step the last tick asked for (valid when it returned true).
+  const DeformRequest& request() const { return request_; }
+
+  /// The mutable state (a snapshot), and its exact restore.
+  const CoreState& state() const { return state_; }
+  void set_state(const CoreState& s) noexcept { state_ = s; }
 
  private:
-  struct ProbeState {
-    ClutchedMapping mapping;
-    bool clutch_command = false;
-    bool have_world = false;
-    Vec3 world = Vec3::Zero();          // last valid probe position, m
-    Vec3 velocity = Vec3::Zero();       // filtered, m/s
-    std::uint64_t last_sequence = 0;
-    double last_sample_time = 0;
-    Vec3 last_sample_world = Vec3::Zero();
-    bool have_sample = false;
-  };
-
   const collision::VertexTree& tree_;
   CoreConfig config_;
   std::vector<ProbeSetup> setups_;
-  std::vector<SafetyFilter> safety_;
-  std::vector<ProbeState> state_;
-  std::vector<ProbeMemory> memory_;
-  std::vector<ProbeInput> probe_inputs_;
-  std::vector<ProbeOutput> probe_outputs_;
+  CoreState state_;
+  DeformRequest request_;
+  std::array<ProbeInput, kMaxProbes> probe_inputs_{};
+  std::array<ProbeOutput, kMaxProbes> probe_outputs_{};
+  std::array<ProbeMemory, kMaxProbes> memory_{};
+  std::array<std::uint8_t, kMaxProbes> slot_of_{};  // dense index -> slot, for haptic_tick
   Vec3 range_lo_, range_hi_;   // positions outside are clamped onto this box (no contact possible)
   Vec3 parking_;               // where a probe with no valid position yet is placed (far from the surface)
-  double last_tick_time_ = 0;
-  bool have_last_tick_ = false;
+  double step_fraction_ = 0;   // deformation steps per tick
 };
 
 }  // namespace palpa::haptics

@@ -1,6 +1,6 @@
 #include "haptics/loop_replay.h"
 
-#include <deque>
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -34,86 +34,72 @@ std::size_t LoopRecording::drain(HapticLoop& loop) {
 
 LoopReplay::LoopReplay(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::MaterialArrays materials,
                        deform::SurfaceOptions options, const CoreConfig& config, std::vector<ProbeSetup> setups)
-    : mesh_(std::move(mesh)) {
-  tree_ = std::make_unique<collision::VertexTree>(std::span<const Vec3>(mesh_->positions));
-  surface_ = std::make_unique<deform::DeformableSurface>(mesh_, std::move(materials), options);
-  core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config, std::move(setups));
+    : session_(std::make_unique<Session>(std::move(mesh), std::move(materials), options, config, std::move(setups))) {}
+
+// Whether the live loop made `generation` (it drops steps only when far behind).
+bool LoopReplay::made_live(const LoopRecording& rec, std::uint64_t generation) {
+  const auto it = std::lower_bound(rec.deforms.begin(), rec.deforms.end(), generation,
+                                   [](const DeformRecord& d, std::uint64_t g) { return d.generation < g; });
+  return it != rec.deforms.end() && it->generation == generation;
+}
+
+// Makes the pending steps up to `generation`, skipping those the live loop dropped.
+void LoopReplay::catch_up(const LoopRecording& rec, std::uint64_t generation, std::uint64_t tick, bool strict) {
+  while (session_->generation() < generation) {
+    if (pending_.empty()) {
+      if (!strict) return;
+      throw std::invalid_argument("replay: deformation step " + std::to_string(session_->generation() + 1) +
+                                  " used by tick " + std::to_string(tick) + " is missing from the recording");
+    }
+    const DeformRequest r = pending_.front();
+    pending_.pop_front();
+    if (made_live(rec, r.generation)) session_->deform(r);
+  }
 }
 
 void LoopReplay::run(const LoopRecording& rec,
-                     const std::function<void(const TickRecord&, std::span<const ProbeTickResult>)>& each) {
-  if (!rec.ticks.empty() && rec.ticks.front().tick != 0)
+                     const std::function<void(const TickRecord&, std::span<const ProbeTickResult>)>& each,
+                     std::uint64_t until) {
+  const std::uint64_t start = session_->tick_count();
+  if (rec.ticks.empty()) return;
+  if (rec.ticks.front().tick > start)
     throw std::invalid_argument("replay: the recording starts at tick " + std::to_string(rec.ticks.front().tick) +
-                                ", not at tick 0");
-  const std::size_t n = core_->probe_count();
+                                ", not at tick " + std::to_string(start));
+  std::size_t k = static_cast<std::size_t>(start - rec.ticks.front().tick);
   std::array<ProbeTickResult, kMaxProbes> results{};
-  std::vector<deform::Contact> scratch;
-  // Contacts recomputed by the replayed ticks, until a step has used them.
-  std::deque<ContactSet> recent;
-  std::size_t next_command = 0, next_deform = 0;
+  std::size_t next_command = static_cast<std::size_t>(
+      std::lower_bound(rec.commands.begin(), rec.commands.end(), start,
+                       [](const CommandRecord& c, std::uint64_t t) { return c.tick < t; }) -
+      rec.commands.begin());
 
-  for (std::size_t k = 0; k < rec.ticks.size(); ++k) {
+  for (; k < rec.ticks.size(); ++k) {
     const TickRecord& tr = rec.ticks[k];
-    if (tr.tick != k)
-      throw std::invalid_argument("replay: tick " + std::to_string(k) + " is missing from the recording");
-    if (tr.probe_count != n)
-      throw std::invalid_argument("replay: tick " + std::to_string(k) + " has " + std::to_string(tr.probe_count) +
-                                  " probes, the replay " + std::to_string(n));
+    const std::uint64_t tick = session_->tick_count();
+    if (tick >= until) return;
+    if (tr.tick != tick)
+      throw std::invalid_argument("replay: tick " + std::to_string(tick) + " is missing from the recording");
 
     // Bring the model to the generation this tick used.
-    while (generation_ < tr.model_generation) {
-      if (next_deform >= rec.deforms.size() || rec.deforms[next_deform].generation != generation_ + 1)
-        throw std::invalid_argument("replay: deformation step " + std::to_string(generation_ + 1) +
-                                    " used by tick " + std::to_string(k) + " is missing from the recording");
-      const DeformRecord& d = rec.deforms[next_deform++];
-      ContactSet used;
-      used.tick = d.contacts_tick;
-      if (d.contacts_tick != kNoContactsTick) {
-        while (!recent.empty() && recent.front().tick < d.contacts_tick) recent.pop_front();
-        if (recent.empty() || recent.front().tick != d.contacts_tick)
-          throw std::invalid_argument("replay: contacts of tick " + std::to_string(d.contacts_tick) +
-                                      " are not available for deformation step " + std::to_string(d.generation));
-        used = recent.front();
-      }
-      to_contacts(used, scratch);
-      surface_->set_contacts(scratch);
-      surface_->step(d.dt);
-      ++generation_;
-    }
+    catch_up(rec, tr.model_generation, tick, true);
 
     // Commands applied at the start of this tick, then the tick itself.
-    while (next_command < rec.commands.size() && rec.commands[next_command].tick <= k) {
+    while (next_command < rec.commands.size() && rec.commands[next_command].tick <= tick) {
       const CommandRecord& c = rec.commands[next_command++];
-      if (c.tick == k) core_->apply(c.command, c.time);
+      if (c.tick == tick) session_->apply(c.command, c.time);
     }
-    ContactSet contacts;
-    core_->tick(k, tr.time, *surface_, tr.model_time, std::span<const ProbeTickInput>(tr.inputs.data(), n),
-                std::span<ProbeTickResult>(results.data(), n), contacts);
-    // Keep only contacts a later deformation step may still use.
-    if (next_deform < rec.deforms.size()) {
-      recent.push_back(contacts);
-      const std::uint64_t needed = rec.deforms[next_deform].contacts_tick;
-      if (needed != kNoContactsTick)
-        while (!recent.empty() && recent.front().tick < needed) recent.pop_front();
-    }
+    const std::size_t n = session_->core().probe_count();
+    if (tr.probe_count != n)
+      throw std::invalid_argument("replay: tick " + std::to_string(tick) + " has " + std::to_string(tr.probe_count) +
+                                  " probes, the replay " + std::to_string(n));
+    if (session_->tick(tr.time, std::span<const ProbeTickInput>(tr.inputs.data(), n),
+                       std::span<ProbeTickResult>(results.data(), n), tr.model_time))
+      pending_.push_back(session_->core().request());
     if (each) each(tr, std::span<const ProbeTickResult>(results.data(), n));
   }
 
   // Deformation steps the live loop made after its last tick.
-  while (next_deform < rec.deforms.size() && rec.deforms[next_deform].generation == generation_ + 1) {
-    const DeformRecord& d = rec.deforms[next_deform++];
-    ContactSet used;
-    used.tick = d.contacts_tick;
-    if (d.contacts_tick != kNoContactsTick) {
-      while (!recent.empty() && recent.front().tick < d.contacts_tick) recent.pop_front();
-      if (recent.empty() || recent.front().tick != d.contacts_tick) break;
-      used = recent.front();
-    }
-    to_contacts(used, scratch);
-    surface_->set_contacts(scratch);
-    surface_->step(d.dt);
-    ++generation_;
-  }
+  const std::uint64_t last = rec.deforms.empty() ? 0 : rec.deforms.back().generation;
+  catch_up(rec, last, session_->tick_count(), false);
 }
 
 }  // namespace palpa::haptics

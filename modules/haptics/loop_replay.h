@@ -1,11 +1,15 @@
 #pragma once
-// Exact replay of a recorded haptic session: the recorded device samples,
-// commands and deformation steps are fed, in tick order, through the same
-// LoopCore and DeformableSurface code the live loop ran, on one thread. The
-// forces and the surface come out bit for bit identical.
+// Exact replay of a recorded haptic session: the recorded device samples
+// and commands are fed, in tick order, through a Session (the same LoopCore
+// and deformation code the live loop ran), on one thread; each tick sees
+// the surface generation the live tick saw (from the records). The forces
+// and the surface come out bit for bit identical. A replay can be
+// snapshot at any tick and restored, so it can seek.
 
 #include "haptics/loop.h"
+#include "haptics/session.h"
 
+#include <deque>
 #include <functional>
 #include <span>
 #include <vector>
@@ -23,6 +27,13 @@ struct LoopRecording {
   std::size_t drain(HapticLoop& loop);
 };
 
+/// A replay's position: the session state and the deformation steps asked
+/// for but not yet made at that tick.
+struct ReplayState {
+  SessionState session;
+  std::deque<DeformRequest> pending;
+};
+
 class LoopReplay {
  public:
   /// The same mesh, materials, options, core configuration and probe setups
@@ -30,24 +41,34 @@ class LoopReplay {
   LoopReplay(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::MaterialArrays materials,
              deform::SurfaceOptions options, const CoreConfig& config, std::vector<ProbeSetup> setups);
 
-  /// Re-runs `recording` from tick 0, calling `each` after every tick with
-  /// the recorded tick and the replayed results; then applies the recorded
-  /// deformation steps made after the last tick. Throws std::invalid_argument
-  /// when the recording does not start at tick 0, has gaps, or lacks a
+  /// Re-runs `recording` from the replay's current tick (0, or the tick of
+  /// a restored state) to its end, calling `each` after every tick with the
+  /// recorded tick and the replayed results; then makes the recorded
+  /// deformation steps that followed the last tick. `until` (exclusive)
+  /// stops early at that tick. Throws std::invalid_argument when the
+  /// recording does not hold the current tick, has gaps, or lacks a
   /// deformation step that a tick used.
   void run(const LoopRecording& recording,
-           const std::function<void(const TickRecord&, std::span<const ProbeTickResult>)>& each);
+           const std::function<void(const TickRecord&, std::span<const ProbeTickResult>)>& each,
+           std::uint64_t until = ~std::uint64_t{0});
+
+  ReplayState snapshot() const { return {session_->snapshot(), pending_}; }
+  void restore(const ReplayState& s) {
+    session_->restore(s.session);
+    pending_ = s.pending;
+  }
 
   /// The surface after the replayed steps.
-  const deform::DeformableSurface& surface() const { return *surface_; }
-  std::uint64_t generation() const { return generation_; }
+  const deform::DeformableSurface& surface() const { return session_->surface(); }
+  std::uint64_t generation() const { return session_->generation(); }
+  std::uint64_t tick() const { return session_->tick_count(); }
 
  private:
-  std::shared_ptr<const mesh::SurfaceMesh> mesh_;
-  std::unique_ptr<collision::VertexTree> tree_;
-  std::unique_ptr<deform::DeformableSurface> surface_;
-  std::unique_ptr<LoopCore> core_;
-  std::uint64_t generation_ = 0;
+  bool made_live(const LoopRecording& rec, std::uint64_t generation);
+  void catch_up(const LoopRecording& rec, std::uint64_t generation, std::uint64_t tick, bool strict);
+
+  std::unique_ptr<Session> session_;
+  std::deque<DeformRequest> pending_;  // asked for by replayed ticks, not yet made
 };
 
 }  // namespace palpa::haptics

@@ -55,7 +55,7 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
   out.surface = ca.surface;
   if (out.surface.triangle == kNoIndex) return;
   const mesh::Triangle& tri = mesh.triangles[out.surface.triangle];
-  if (states.size() != mesh.vertex_count() || surface.materials().size() != mesh.vertex_count()) return;
+  if (states.size() != mesh.vertex_count()) return;
   const Vec3& b = out.surface.barycentric;
   const Vec3 heights(states[tri[0]].h, states[tri[1]].h, states[tri[2]].h);
   out.height = collision::height_check(out.surface, heights, was_in_contact);

@@ -14,7 +14,9 @@ namespace palpa::haptics {
 
 template <class T>
 class SpscQueue {
-  static_assert(std::is_trivially_copyable_v<T>, "SpscQueue holds plain data");
+  // Plain values: nothing to free, so no owned heap memory (copies do not allocate).
+  static_assert(std::is_trivially_destructible_v<T> && std::is_copy_assignable_v<T>,
+                "SpscQueue holds plain data");
 
  public:
   /// Room for at least `capacity` items (rounded up to a power of two, >= 2).

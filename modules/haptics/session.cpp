@@ -1,0 +1,128 @@
+#include "haptics/session.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace palpa::haptics {
+
+std::shared_ptr<const SessionModel> SessionModel::make(std::shared_ptr<const mesh::SurfaceMesh> mesh,
+                                                       deform::SurfaceOptions options, const CoreConfig& config) {
+  if (!mesh) throw std::invalid_argument("session: no surface mesh");
+  if (mesh->vertex_count() == 0) throw std::invalid_argument("session: the surface has no vertices");
+  config.validate();
+  auto m = std::make_shared<SessionModel>();
+  m->tree = std::make_shared<collision::VertexTree>(std::span<const Vec3>(mesh->positions));
+  m->mesh = std::move(mesh);
+  m->options = options;
+  m->config = config;
+  return m;
+}
+
+namespace {
+
+MaterialSource source_of(const deform::MaterialArrays& m) {
+  MaterialSource s;
+  bool same = m.size() > 0;
+  const deform::Material first = same ? m.at(0) : deform::Material{};
+  for (std::size_t i = 1; same && i < m.size(); ++i) same = m.at(static_cast<Index>(i)) == first;
+  if (same) {
+    s.material = first;
+  } else {
+    s.uniform = false;
+    s.map = std::make_shared<deform::MaterialArrays>(m);
+    s.map_ptr = s.map.get();
+  }
+  return s;
+}
+
+}  // namespace
+
+Session::Session(std::shared_ptr<const SessionModel> model, deform::MaterialArrays materials,
+                 std::vector<ProbeSetup> probes)
+    : model_(std::move(model)) {
+  if (!model_ || !model_->mesh || !model_->tree) throw std::invalid_argument("session: no model");
+  materials_ = source_of(materials);
+  surface_ = std::make_unique<deform::DeformableSurface>(model_->mesh, std::move(materials), model_->options);
+  core_ = std::make_unique<LoopCore>(*model_->tree, *model_->mesh, model_->config, std::move(probes));
+  surface_->take_dirty_ranges();
+}
+
+Session::Session(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::MaterialArrays materials,
+                 deform::SurfaceOptions options, const CoreConfig& config, std::vector<ProbeSetup> probes)
+    : Session(SessionModel::make(std::move(mesh), options, config), std::move(materials), std::move(probes)) {}
+
+void Session::apply(const LoopCommand& command, double t) noexcept { core_->apply(command, t); }
+
+void Session::set_materials(deform::MaterialArrays materials, double t) {
+  materials.validate(model_->mesh->vertex_count());
+  auto kept = std::make_shared<const deform::MaterialArrays>(std::move(materials));
+  kept_maps_.push_back(kept);
+  LoopCommand c;
+  c.kind = LoopCommandKind::SetMaterialMap;
+  c.materials = kept.get();
+  core_->apply(c, t);
+}
+
+bool Session::tick(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
+                   double model_time) {
+  // The model at rest counts as made at the first tick.
+  if (generation_ == 0 && tick_ == 0) model_time_ = t;
+  const double mt = std::isnan(model_time) ? model_time_ : model_time;
+  const bool due = core_->tick(tick_, t, *surface_, mt, inputs, results, contacts_);
+  ++tick_;
+  return due;
+}
+
+void Session::deform(const DeformRequest& r) {
+  apply_deform_request(*surface_, r, scratch_);
+  // The material in force, for snapshots.
+  if (r.edits.material == 1) {
+    materials_ = MaterialSource{};
+    materials_.material = r.edits.uniform;
+  } else if (r.edits.material == 2 && r.edits.map != nullptr) {
+    materials_ = MaterialSource{};
+    materials_.uniform = false;
+    materials_.map_ptr = r.edits.map;
+    for (const auto& k : kept_maps_)
+      if (k.get() == r.edits.map) materials_.map = k;
+  }
+  generation_ = r.generation;
+  model_time_ = r.time;
+}
+
+bool Session::step(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results) {
+  if (!tick(t, inputs, results)) return false;
+  deform(core_->request());
+  return true;
+}
+
+SessionState Session::snapshot() const {
+  SessionState s;
+  s.core = core_->state();
+  s.surface = surface_->state();
+  const auto c = surface_->contacts();
+  s.contacts.assign(c.begin(), c.end());
+  s.tick = tick_;
+  s.generation = generation_;
+  s.model_time = model_time_;
+  s.materials = materials_;
+  return s;
+}
+
+void Session::restore(const SessionState& s) {
+  // Materials first (they shape the fields the restore rebuilds).
+  if (s.materials.uniform) {
+    surface_->set_uniform_material(s.materials.material);
+  } else if (s.materials.map_ptr != nullptr) {
+    surface_->set_materials(*s.materials.map_ptr);
+  }
+  surface_->restore(s.surface, s.contacts);
+  core_->set_state(s.core);
+  tick_ = s.tick;
+  generation_ = s.generation;
+  model_time_ = s.model_time;
+  materials_ = s.materials;
+  if (s.materials.map) kept_maps_.push_back(s.materials.map);
+}
+
+}  // namespace palpa::haptics

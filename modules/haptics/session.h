@@ -1,0 +1,124 @@
+#pragma once
+// The session engine: one model, one state, one step.
+//
+// A session is a const model (the undeformed mesh, its vertex tree, the
+// surface options and the timing configuration), a plain, copyable state
+// (SessionState: every vertex state, the contacts, every probe's memory,
+// velocity filter, safety and clutch state, the material in force, time and
+// counters) and one step: the haptic tick of every probe (LoopCore::tick)
+// followed, on the schedule CoreConfig::deform_rate_hz sets, by the
+// deformation step (apply_deform_request). Edits (materials, probes,
+// mappings, shape function, force parameters, reset) are LoopCommands
+// applied at a step boundary, so they are part of the recorded session.
+//
+// Session runs both halves on the calling thread: palpa-palpate, the render
+// job, the benchmarks and the replay use it. The real-time HapticLoop runs
+// the very same two halves (LoopCore::tick on the haptic thread,
+// apply_deform_request on the deformation thread), so with every requested
+// step made before the next tick a live session and a Session give the same
+// bits (tests/loop/test_session.cpp checks it).
+
+#include "haptics/loop_core.h"
+
+#include <limits>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace palpa::haptics {
+
+/// What stepping never changes.
+struct SessionModel {
+  std::shared_ptr<const mesh::SurfaceMesh> mesh;
+  std::shared_ptr<const collision::VertexTree> tree;
+  deform::SurfaceOptions options;
+  CoreConfig config;  ///< rates and the initial force and shape parameters
+
+  /// Builds the vertex tree over `mesh` (O(V log V)). Throws
+  /// std::invalid_argument for a null or empty mesh or a bad configuration.
+  static std::shared_ptr<const SessionModel> make(std::shared_ptr<const mesh::SurfaceMesh> mesh,
+                                                  deform::SurfaceOptions options, const CoreConfig& config);
+};
+
+/// The material map in force: one material, or a per-vertex map kept alive here.
+struct MaterialSource {
+  bool uniform = true;
+  deform::Material material;                            ///< when uniform
+  std::shared_ptr<const deform::MaterialArrays> map;    ///< otherwise
+  const deform::MaterialArrays* map_ptr = nullptr;      ///< the map the commands named (== map.get() or external)
+};
+
+/// Everything that changes while a session runs: a copy is a snapshot.
+struct SessionState {
+  CoreState core;
+  deform::SurfaceState surface;            ///< per-vertex h (m), h' (m/s), q (m); time (s)
+  std::vector<deform::Contact> contacts;   ///< the contacts of the last deformation step
+  std::uint64_t tick = 0;                  ///< ticks made
+  std::uint64_t generation = 0;            ///< deformation steps made
+  double model_time = 0;                   ///< s: the time of the tick that asked for the last step
+  MaterialSource materials;
+};
+
+class Session {
+ public:
+  /// A session at rest with `probes` in slots 0 .. n-1 (output disabled
+  /// until an Enable command). Throws std::invalid_argument as LoopCore and
+  /// DeformableSurface do.
+  Session(std::shared_ptr<const SessionModel> model, deform::MaterialArrays materials,
+          std::vector<ProbeSetup> probes);
+  /// Convenience: builds the model too.
+  Session(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::MaterialArrays materials,
+          deform::SurfaceOptions options, const CoreConfig& config, std::vector<ProbeSetup> probes);
+
+  const SessionModel& model() const { return *model_; }
+  std::shared_ptr<const SessionModel> model_ptr() const { return model_; }
+
+  /// Applies an edit or command at the next step boundary, time t (s).
+  /// SetMaterialMap's array must outlive the session (or use set_materials).
+  void apply(const LoopCommand& command, double t) noexcept;
+  /// Queues per-vertex materials (kept alive by the session) for the next
+  /// deformation step. Throws std::invalid_argument as MaterialArrays::validate.
+  void set_materials(deform::MaterialArrays materials, double t);
+
+  /// One step at time t (s): the haptic tick of every probe, then the
+  /// deformation step when one is due. `inputs` and `results` hold
+  /// core().probe_count() entries (slot-indexed). Returns true when the
+  /// surface stepped.
+  bool step(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results);
+
+  /// The haptic half alone (returns true when a deformation step is due:
+  /// its request is core().request()), and the deformation half. A replay
+  /// passes the recorded `model_time` (s) of the generation the tick used;
+  /// NaN: the time of the tick that asked for the current generation.
+  bool tick(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
+            double model_time = std::numeric_limits<double>::quiet_NaN());
+  void deform(const DeformRequest& request);
+
+  /// The contacts of the last tick.
+  const ContactSet& contacts() const { return contacts_; }
+  const deform::DeformableSurface& surface() const { return *surface_; }
+  deform::DeformableSurface& surface() { return *surface_; }
+  const LoopCore& core() const { return *core_; }
+  std::uint64_t tick_count() const { return tick_; }
+  std::uint64_t generation() const { return generation_; }
+  double model_time() const { return model_time_; }
+
+  /// A copy of the whole state, and its exact restore: stepping after
+  /// restore(s) gives the same bits as stepping after the snapshot was
+  /// taken. Throws std::invalid_argument when the snapshot does not fit.
+  SessionState snapshot() const;
+  void restore(const SessionState& s);
+
+ private:
+  std::shared_ptr<const SessionModel> model_;
+  std::unique_ptr<deform::DeformableSurface> surface_;
+  std::unique_ptr<LoopCore> core_;
+  ContactSet contacts_;
+  std::vector<deform::Contact> scratch_;
+  std::uint64_t tick_ = 0, generation_ = 0;
+  double model_time_ = 0;
+  MaterialSource materials_;
+  std::vector<std::shared_ptr<const deform::MaterialArrays>> kept_maps_;  // maps queued by set_materials
+};
+
+}  // namespace palpa::haptics
