@@ -31,6 +31,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -238,6 +239,28 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
     std::this_thread::sleep_for(100ms);
   const haptics::LoopStatistics s = loop.statistics();
   const haptics::LoopView v = loop.view();
+
+  // Edit latency: the time from a command to the end of the first
+  // deformation step that uses it (both replicas), while everything runs.
+  std::vector<double> material_ms, shape_ms;
+  deform::Material soft = scene.materials.at(0), stiff = soft;
+  stiff.stiffness *= 2;
+  for (int k = 0; k < 20; ++k) {
+    std::this_thread::sleep_for(37ms);
+    auto e0 = std::chrono::steady_clock::now();
+    const auto ticket = loop.set_material(k % 2 ? soft : stiff);
+    while (!loop.in_effect(ticket)) std::this_thread::yield();
+    material_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - e0).count());
+    std::this_thread::sleep_for(23ms);
+    deform::ShapeFunction sh = c.core.shape;
+    sh.radius = k % 2 ? 0.015 : 0.012;
+    e0 = std::chrono::steady_clock::now();
+    const auto t2 = loop.set_shape(sh);
+    while (!loop.in_effect(t2)) std::this_thread::yield();
+    shape_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - e0).count());
+  }
+  std::sort(material_ms.begin(), material_ms.end());
+  std::sort(shape_ms.begin(), shape_ms.end());
   rendering.store(false);
   renderer.join();
   loop.stop();
@@ -264,6 +287,11 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
               render_error.empty() ? render_backend.c_str() : "FAILED", o.width, o.height,
               static_cast<unsigned long long>(frames), frames ? frame_ms_sum / frames : 0.0, uploaded / 1e6, contacts,
               v.probe_count);
+  const double deform_period_ms = 1e3 / o.deform_rate;
+  std::printf("  edit latency (command -> first deformation step using it, %zu vertices, 20 each): material p50 %.2f "
+              "ms, max %.2f ms; shape function p50 %.2f ms, max %.2f ms; deformation period %.2f ms: %s\n",
+              scene.mesh->vertex_count(), material_ms[10], material_ms.back(), shape_ms[10], shape_ms.back(),
+              deform_period_ms, material_ms[10] <= deform_period_ms ? "within one period (p50)" : "NOT within one period");
   const bool target = rate <= 1000 ? pct < 0.1 : s.achieved_rate_hz > 0.99 * rate;
   std::printf("  target (%s): %s\n", rate <= 1000 ? "< 0.1 % missed deadlines" : "rate sustained",
               target ? "met" : "NOT met");
@@ -309,6 +337,19 @@ int main(int argc, char** argv) {
                                                   scene.mesh->positions[v], scene.mesh->normals[v], 0.7 * i));
   }
 
+  {
+    // What an edit cost before the session engine: a new loop (vertex tree
+    // and two surface replicas) for every material or probe change.
+    devices::Device d = devices::PluginLoader().load("scripted").create("file=" + scene.trajectories[0] + ";loop=true");
+    d.start();
+    haptics::ProbeBinding b;
+    b.device = &d;
+    const auto r0 = std::chrono::steady_clock::now();
+    haptics::HapticLoop rebuilt(scene.mesh, scene.materials, {}, haptics::LoopConfig{}, {b});
+    std::printf("rebuilding a loop (what an edit used to cost): %.0f ms at %zu vertices\n",
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - r0).count(),
+                scene.mesh->vertex_count());
+  }
   if (!o.load_only)
     for (double r : o.rates) run(scene, o, r, false);
   if (o.load_run || o.load_only) run(scene, o, 1000, true);

@@ -4,7 +4,7 @@
 
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
-#include "haptics/probe_tick.h"
+#include "haptics/session.h"
 #include "mesh/generate.h"
 #include "mesh/io.h"
 
@@ -140,13 +140,29 @@ int main(int argc, char** argv) {
 
   // Build the collision tree and the deformable surface.
   t0 = Clock::now();
-  palpa::collision::VertexTree tree(mesh->positions);
+  palpa::haptics::CoreConfig config;
+  config.rate_hz = o.rate_hz;
+  config.deform_rate_hz = o.rate_hz;  // one deformation step per tick
+  config.force.friction = o.friction;
+  config.force.max_force = o.max_force;
+  config.shape.kind = palpa::deform::ShapeKind::Wendland;
+  config.shape.radius = o.radius;
+  const auto model = palpa::haptics::SessionModel::make(mesh, {}, config);
+  const palpa::collision::VertexTree& tree = *model->tree;
   palpa::deform::Material mat;
   mat.model = palpa::deform::LocalModelKind::Linear;
   mat.stiffness = o.stiffness;
   mat.damping = o.damping;
   mat.mass = o.mass;
-  palpa::deform::DeformableSurface surface(mesh, palpa::deform::MaterialArrays::uniform(mesh->vertex_count(), mat));
+  // Scripted probes have no force output: the session reports the model's force.
+  std::vector<palpa::haptics::ProbeSetup> setups(o.probes);
+  for (int j = 0; j < o.probes; ++j) {
+    setups[j].name = "scripted probe " + std::to_string(j);
+    setups[j].spec.position_dof = 3;
+    setups[j].safety.max_jump = 1e9;
+  }
+  palpa::haptics::Session session(model, palpa::deform::MaterialArrays::uniform(mesh->vertex_count(), mat), setups);
+  const palpa::deform::DeformableSurface& surface = session.surface();
   std::printf("  tree of %zu nodes (depth %d) built in %.0f ms\n", tree.node_count(), tree.depth(),
               std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
 
@@ -178,18 +194,8 @@ int main(int argc, char** argv) {
     script.push_back(sp);
   }
 
-  palpa::haptics::ForceParams fp;
-  fp.friction = o.friction;
-  fp.max_force = o.max_force;
-  palpa::deform::ShapeFunction shape;
-  shape.kind = palpa::deform::ShapeKind::Wendland;
-  shape.radius = o.radius;
-
-  std::vector<palpa::haptics::ProbeInput> in(o.probes);
-  std::vector<palpa::haptics::ProbeMemory> memory(o.probes);
-  std::vector<palpa::haptics::ProbeOutput> out(o.probes);
-  std::vector<palpa::deform::Contact> contacts;
-  contacts.reserve(o.probes);
+  std::vector<palpa::haptics::ProbeTickInput> in(o.probes);
+  std::vector<palpa::haptics::ProbeTickResult> out(o.probes);
 
   const double dt = 1.0 / o.rate_hz;
   const long ticks = std::lround(o.seconds * o.rate_hz);
@@ -216,32 +222,35 @@ int main(int argc, char** argv) {
       const double a = s.phase + w * t;
       const double dpress = M_PI / o.seconds * std::sin(2.0 * M_PI * t / o.seconds);
       const double d = o.depth * press - 0.001;  // starts 1 mm above the surface
-      in[j].position = s.center + s.circle_r * (std::cos(a) * s.u + std::sin(a) * s.v) - d * s.normal;
-      in[j].velocity = s.circle_r * w * (-std::sin(a) * s.u + std::cos(a) * s.v) - o.depth * dpress * s.normal;
+      (void)dpress;
+      const Vec3 p = s.center + s.circle_r * (std::cos(a) * s.u + std::sin(a) * s.v) - d * s.normal;
+      auto& sample = in[j].sample;
+      sample.orientation[0] = 1;
+      for (int k = 0; k < 3; ++k) sample.position[k] = p[k];
+      sample.status = PALPA_STATUS_VALID;
+      sample.sequence = static_cast<std::uint64_t>(n) + 1;
+      sample.time = t;
     }
-    // Collision and force for every probe (eq. 4).
+    // One session step: collision and force for every probe (eq. 4), then
+    // the deformation step with their contacts.
     auto a0 = Clock::now();
-    palpa::haptics::haptic_tick(surface, tree, in, memory, out, fp, shape);
+    const bool due = session.tick(t, in, out);
     auto a1 = Clock::now();
-    // Feed the contacts to the surface and integrate the local models.
-    contacts.clear();
-    for (const auto& po : out)
-      if (po.in_contact) contacts.push_back(po.contact);
-    surface.set_contacts(contacts);
-    surface.step(dt);
+    if (due) session.deform(session.core().request());
     auto a2 = Clock::now();
     tick_us.push_back(std::chrono::duration<double, std::micro>(a1 - a0).count());
     step_us.push_back(std::chrono::duration<double, std::micro>(a2 - a1).count());
-    for (const auto& po : out) peak_force = std::max(peak_force, po.force.norm());
+    for (const auto& po : out) peak_force = std::max(peak_force, palpa::haptics::to_vec(po.force_world).norm());
     peak_active = std::max(peak_active, surface.active_count());
 
     if (n % std::max<long>(1, ticks / 10) == 0 || n == ticks - 1) {
       std::printf("%8.3f", t);
       for (const auto& po : out) {
+        const double f = palpa::haptics::to_vec(po.force_world).norm();
         if (po.in_contact)
-          std::printf("   %18.2f  %7.3f", 1e3 * po.height.depth, po.force.norm());
+          std::printf("   %18.2f  %7.3f", 1e3 * po.depth, f);
         else
-          std::printf("   %18s  %7.3f", "no contact", po.force.norm());
+          std::printf("   %18s  %7.3f", "no contact", f);
       }
       std::printf("   %zu\n", surface.active_count());
     }

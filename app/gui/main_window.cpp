@@ -515,7 +515,7 @@ void MainWindow::apply_material() {
   m.friction = friction_->value();
   m.max_force = max_force_->value();
   try {
-    workbench_.set_material(m);  // the loop restarts with it, probes kept
+    workbench_.set_material(m);  // edits of the running loop: the dent and the probes stay
   } catch (const std::exception& e) {
     show_error(QString("Could not apply the material: %1").arg(e.what()));
     return;

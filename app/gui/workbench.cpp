@@ -38,50 +38,62 @@ Workbench::~Workbench() {
 }
 
 // ---------------------------------------------------------------------------
-// The loop: configuration from the material, built from the probes' devices.
+// The loop: one per organ, long-lived; every other change is a command.
 haptics::LoopConfig Workbench::loop_config() const {
   haptics::LoopConfig c;
   c.core.rate_hz = kHapticRateHz;
   c.core.deform_rate_hz = kDeformRateHz;
-  c.core.force.friction = material_.friction;
-  c.core.force.max_force = material_.max_force;
+  c.core.force = force_params(material_);
   c.core.shape = deform::ShapeFunction{material_.shape, material_.radius};
   return c;
+}
+
+haptics::ForceParams Workbench::force_params(const MaterialSettings& m) {
+  haptics::ForceParams f;
+  f.friction = m.friction;
+  f.max_force = m.max_force;
+  return f;
+}
+
+haptics::ProbeBinding Workbench::binding(const Probe& p) {
+  haptics::ProbeBinding b;
+  b.device = p.dev.get();
+  b.name = "probe " + std::to_string(p.id) + " (" + p.device + ")";
+  b.mapping = p.mapping;
+  return b;
 }
 
 std::unique_ptr<haptics::HapticLoop> Workbench::build_loop(const render::Organ& organ,
                                                            const deform::MaterialArrays& materials,
                                                            const haptics::LoopConfig& config,
                                                            const std::vector<Probe>& probes) const {
-  if (!organ.mesh || probes.empty()) return nullptr;
+  if (!organ.mesh) return nullptr;
   std::vector<haptics::ProbeBinding> bindings;
-  for (const Probe& p : probes) {
-    haptics::ProbeBinding b;
-    b.device = p.dev.get();
-    b.name = "probe " + std::to_string(p.id) + " (" + p.device + ")";
-    b.mapping = p.mapping;
-    bindings.push_back(b);
-  }
+  for (const Probe& p : probes) bindings.push_back(binding(p));
   return std::make_unique<haptics::HapticLoop>(organ.mesh, materials, deform::SurfaceOptions{}, config,
                                                std::move(bindings));
 }
 
 // Nothing here throws once `next` is built: stop the old loop, swap, start.
 // The mouse devices are fed the probes' current state before the new loop
-// starts, so its first ticks never read a position from before the change
-// (a probe lifted by reset() would otherwise still press for a moment).
+// starts, so its first ticks never read a position from before the change.
 void Workbench::install(std::unique_ptr<haptics::HapticLoop> next, std::vector<Probe>& probes) {
   if (loop_) loop_->stop();
   std::swap(loop_, next);
   std::swap(probes_, probes);
   next.reset();  // the old loop goes before the devices only it used (in `probes`)
-  for (Probe& p : probes_) p.output = {};
+  for (std::size_t i = 0; i < probes_.size(); ++i) {
+    probes_[i].slot = i;
+    probes_[i].output = {};
+  }
   for (const Probe& p : probes_) feed(p);
   if (!loop_) return;
   loop_->start();
-  for (std::size_t i = 0; i < probes_.size(); ++i)
-    if (probes_[i].force_output && probes_[i].wants_output) loop_->enable(i);
+  for (const Probe& p : probes_)
+    if (p.force_output && p.wants_output) last_ticket_ = loop_->enable(p.slot);
 }
+
+bool Workbench::settled() const { return !loop_ || loop_->in_effect(last_ticket_); }
 
 // Mouse probes: the tip pressed `depth` below the anchor, or held just above
 // it when lifted; an unplaced probe reports "not ready" (parked by the loop).
@@ -112,28 +124,33 @@ void Workbench::set_organ(render::Organ organ) {
     }
   auto loop = build_loop(organ, materials, loop_config(), next);
   organ_ = std::move(organ);
-  materials_ = std::move(materials);
   install(std::move(loop), next);
   epoch_ = monotonic_now();
   time_ = 0;
 }
 
+// Edits of the running loop: validated first (strong guarantee), then sent
+// as commands; the dent and every probe stay where they are.
 void Workbench::set_material(const MaterialSettings& m) {
+  const deform::Material material = to_material(m);
+  deform::validate_material(material, "material");
+  haptics::CoreConfig check = loop_config().core;
+  check.force = force_params(m);
+  check.shape = deform::ShapeFunction{m.shape, m.radius};
+  check.validate();
   const MaterialSettings old = material_;
   material_ = m;
-  try {
-    deform::MaterialArrays materials =
-        has_organ() ? deform::MaterialArrays::uniform(organ_.mesh->vertex_count(), to_material(m))
-                    : deform::MaterialArrays{};
-    std::vector<Probe> next = probes_;
-    for (Probe& p : next) p.depth = std::min(p.depth, max_depth());
-    auto loop = build_loop(organ_, materials, loop_config(), next);
-    materials_ = std::move(materials);
-    install(std::move(loop), next);
-  } catch (...) {
-    material_ = old;
-    throw;
-  }
+  for (Probe& p : probes_)
+    if (p.host_fed && p.depth > max_depth()) set_depth(p.id, max_depth());
+  if (!loop_) return;
+  if (!(to_material(old) == material)) last_ticket_ = loop_->set_material(material);
+  if (old.shape != m.shape || old.radius != m.radius) last_ticket_ = loop_->set_shape(check.shape);
+  if (old.friction != m.friction || old.max_force != m.max_force) last_ticket_ = loop_->set_force(check.force);
+}
+
+deform::MaterialArrays Workbench::materials() const {
+  if (!has_organ()) return {};
+  return deform::MaterialArrays::uniform(organ_.mesh->vertex_count(), to_material(material_));
 }
 
 // ---------------------------------------------------------------------------
@@ -143,13 +160,17 @@ int Workbench::add(Probe p) {
     throw std::invalid_argument("cannot add probe: the haptic loop drives at most " +
                                 std::to_string(haptics::kMaxProbes) + " probes");
   p.id = next_id_;
-  std::vector<Probe> next = probes_;
-  next.push_back(p);
-  auto loop = build_loop(organ_, materials_, loop_config(), next);
-  install(std::move(loop), next);
+  if (loop_) {
+    std::size_t slot = 0;
+    last_ticket_ = loop_->add_probe(binding(p), slot);  // throws, nothing changed
+    p.slot = slot;
+    feed(p);
+    if (p.force_output && p.wants_output) last_ticket_ = loop_->enable(slot);
+  }
+  probes_.push_back(std::move(p));
   ++next_id_;
-  selected_ = p.id;
-  return p.id;
+  selected_ = probes_.back().id;
+  return probes_.back().id;
 }
 
 int Workbench::add_probe() {
@@ -174,10 +195,15 @@ int Workbench::add_device_probe(const std::string& plugin, const std::string& op
 }
 
 void Workbench::remove_probe(int id) {
-  std::vector<Probe> next = probes_;
-  std::erase_if(next, [id](const Probe& p) { return p.id == id; });
-  if (next.size() == probes_.size()) return;
-  install(build_loop(organ_, materials_, loop_config(), next), next);
+  const auto it = std::find_if(probes_.begin(), probes_.end(), [id](const Probe& p) { return p.id == id; });
+  if (it == probes_.end()) return;
+  if (loop_) {
+    const haptics::CommandTicket t = loop_->remove_probe(it->slot);
+    last_ticket_ = t;
+    // The device goes once the haptic thread no longer reads it.
+    if (!loop_->wait_applied(t, 1.0)) retired_.push_back(it->dev);
+  }
+  probes_.erase(it);
   if (selected_ == id) selected_ = probes_.empty() ? 0 : probes_.back().id;
 }
 
@@ -211,13 +237,11 @@ void Workbench::set_depth(int id, double depth) {
 }
 
 void Workbench::reenable(int id) {
-  for (std::size_t i = 0; i < probes_.size(); ++i) {
-    Probe& p = probes_[i];
-    if (p.id != id) continue;
-    p.wants_output = true;
-    p.fault_text.clear();
-    if (loop_ && p.force_output) loop_->enable(i);
-  }
+  Probe* p = probe(id);
+  if (!p) return;
+  p->wants_output = true;
+  p->fault_text.clear();
+  if (loop_ && p->force_output) last_ticket_ = loop_->enable(p->slot);
 }
 
 // ---------------------------------------------------------------------------
@@ -226,10 +250,9 @@ void Workbench::update() {
   if (!loop_) return;
   const haptics::LoopView v = loop_->view();
   if (v.tick > 0) time_ = v.time - epoch_;
-  const std::size_t n = std::min<std::size_t>(v.probe_count, probes_.size());
-  for (std::size_t i = 0; i < n; ++i) {
-    const haptics::ProbeTickResult& r = v.probes[i];
-    Probe& p = probes_[i];
+  for (Probe& p : probes_) {
+    if (p.slot >= v.probe_count) continue;
+    const haptics::ProbeTickResult& r = v.probes[p.slot];
     p.output.force = haptics::to_vec(r.force_world);
     p.output.in_contact = r.in_contact != 0;
     p.output.depth = r.depth;
@@ -241,7 +264,7 @@ void Workbench::update() {
       p.placed = (r.sample.status & PALPA_STATUS_VALID) != 0;
       p.tip = haptics::to_vec(r.world);
     }
-    // A latched fault stays shown (and output off, across rebuilds) until re-enabled.
+    // A latched fault stays shown (and output off) until re-enabled.
     if (p.output.fault != haptics::SafetyFault::None && p.fault_text.empty()) {
       p.fault_text = haptics::to_string(p.output.fault);
       p.wants_output = false;
@@ -256,11 +279,14 @@ std::vector<IndexRange> Workbench::take_surface_changes(std::vector<float>& stre
 
 void Workbench::reset() {
   for (Probe& p : probes_) {
-    if (p.host_fed) p.depth = 0;
+    if (p.host_fed) {
+      p.depth = 0;
+      if (p.placed) p.tip = p.anchor + kLiftClearance * p.normal;
+      feed(p);
+    }
     p.output = {};
   }
-  std::vector<Probe> next = probes_;
-  install(build_loop(organ_, materials_, loop_config(), next), next);
+  if (loop_) last_ticket_ = loop_->reset_surface();
 }
 
 haptics::LoopView Workbench::view() const { return loop_ ? loop_->view() : haptics::LoopView{}; }

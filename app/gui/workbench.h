@@ -8,9 +8,11 @@
 // per frame to read the loop's latest state and take_surface_changes() to
 // move the render stream.
 //
-// The loop has a fixed set of probes and materials, so adding or removing a
-// probe, changing the material or the organ, and reset() rebuild it (the
-// surface starts again from rest; the devices keep running).
+// One loop runs per organ. Adding or removing a probe, changing the
+// material, shape function or force parameters, and reset() are commands
+// to the running loop (applied at a tick boundary, recorded with the
+// session): the dent and the other probes stay where they are. Only a new
+// organ builds a new loop.
 
 #include "devices/loader.h"
 #include "haptics/loop.h"
@@ -64,6 +66,7 @@ struct Probe {
   Vec3 tip = Vec3::Zero();       ///< probe position (mouse: what is fed; others: the loop's), m
   ProbeReadout output;           ///< the loop's latest state (update())
   std::shared_ptr<devices::Device> dev;  ///< started; outlives every loop that uses it
+  std::size_t slot = 0;          ///< the loop's probe slot
 };
 
 class Workbench {
@@ -81,12 +84,15 @@ class Workbench {
   bool has_organ() const { return organ_.mesh != nullptr; }
   const render::Organ& organ() const { return organ_; }
 
-  /// New material for every vertex and new force/shape parameters (the loop
-  /// is rebuilt with them; probes kept). Strong guarantee.
+  /// New material for every vertex and new force/shape parameters, sent to
+  /// the running loop as edits (probes and dent kept). Strong guarantee:
+  /// a bad value throws std::invalid_argument and changes nothing.
   void set_material(const MaterialSettings& m);
   const MaterialSettings& material() const { return material_; }
-  /// The per-vertex materials the running model uses.
-  const deform::MaterialArrays& materials() const { return materials_; }
+  /// The per-vertex materials the running model uses (once settled()).
+  deform::MaterialArrays materials() const;
+  /// True once the latest edit has reached the running model.
+  bool settled() const;
 
   /// Adds a mouse probe and selects it; returns its id. Throws (nothing
   /// changed) when the mouse plugin cannot be loaded or the loop is full.
@@ -123,7 +129,7 @@ class Workbench {
   /// from the loop (everything after a rebuild); empty without a loop.
   std::vector<IndexRange> take_surface_changes(std::vector<float>& stream);
 
-  /// Surface to rest (the loop is rebuilt), every mouse probe lifted.
+  /// Surface to rest (a command; the loop keeps running), every mouse probe lifted.
   void reset();
 
   /// The running loop, or null (no organ or no probe).
@@ -144,12 +150,15 @@ class Workbench {
   void install(std::unique_ptr<haptics::HapticLoop> next, std::vector<Probe>& probes);
   void feed(const Probe& p) const;
   int add(Probe p);
+  static haptics::ForceParams force_params(const MaterialSettings& m);
+  static haptics::ProbeBinding binding(const Probe& p);
 
   devices::PluginLoader loader_;
   render::Organ organ_;
   MaterialSettings material_;
-  deform::MaterialArrays materials_;
   std::vector<Probe> probes_;
+  std::vector<std::shared_ptr<devices::Device>> retired_;  // removed, maybe still read by the loop
+  haptics::CommandTicket last_ticket_ = 0;
   std::unique_ptr<haptics::HapticLoop> loop_;
   int selected_ = 0;
   int next_id_ = 1;

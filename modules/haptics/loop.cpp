@@ -318,6 +318,7 @@ void HapticLoop::apply_now(const Queued& q, double t) {
     mailbox_->publish(replicas_[current_.load()]->stream(), ranges);
     replicas_[1 - current_.load()]->take_dirty_ranges();
   }
+  applied_tick_.store(0, std::memory_order_release);
   applied_.store(q.ticket, std::memory_order_release);
 }
 
@@ -531,6 +532,7 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   meta_[cur] = meta_[other];
   deform_hist_.record(clock_->now_ns() - t0);
   deform_steps_.fetch_add(1, std::memory_order_relaxed);
+  made_tick_.store(r.tick + 1, std::memory_order_release);
   made_.fetch_add(1, std::memory_order_release);
 }
 
@@ -609,6 +611,7 @@ void HapticLoop::haptic_main() {
       core_->apply(cmd, t);
       if (command_records_ && !command_records_->push({tick, t, cmd}))
         record_drops_.fetch_add(1, std::memory_order_relaxed);
+      applied_tick_.store(tick + 1, std::memory_order_release);
       applied_.store(q.ticket, std::memory_order_release);
     }
 

@@ -270,8 +270,9 @@ TEST_F(MainWindowTest, MaterialPanelAppliesAtOnceAndIsRememberedNextTime) {
     auto* stiffness = w->findChild<QDoubleSpinBox*>("stiffness");
     ASSERT_NE(stiffness, nullptr);
     stiffness->setValue(777);
-    // The loop was restarted with the new material.
+    // The running loop takes the new material as an edit at its next step.
     ASSERT_NE(w->workbench().loop(), nullptr);
+    ASSERT_TRUE(wait_until([&] { return w->workbench().settled(); }));
     EXPECT_EQ(w->workbench().loop()->surface().materials().stiffness.front(), 777);
     EXPECT_EQ(w->workbench().material().stiffness, 777);
     w->findChild<QDoubleSpinBox*>("radius")->setValue(31);
@@ -335,7 +336,8 @@ TEST_F(MainWindowTest, ScreenshotAndResetWork) {
   ASSERT_TRUE(wait_until([&] { return w->surface_view()->max_displacement() > 1e-4; }));
   w->reset();
   EXPECT_EQ(w->workbench().selected_probe()->depth, 0.0);
-  EXPECT_EQ(w->surface_view()->max_displacement(), 0.0);
+  // The reset reaches the running loop at its next deformation step.
+  EXPECT_TRUE(wait_until([&] { return w->surface_view()->max_displacement() == 0.0; }));
 }
 
 }  // namespace
