@@ -259,7 +259,7 @@ void HapticLoop::stop() {
   // Requests still queued: make them, so both replicas are level and every
   // recorded tick's generation exists.
   DeformRequest r;
-  while (requests_->pop(r)) process(r, true);
+  while (requests_->pop(r)) process(r, true);  // in order, not merged: the records stay complete
   while (backlog_size_ > 0) {
     process(backlog_[backlog_head_], true);
     backlog_head_ = (backlog_head_ + 1) % kBacklog;
@@ -539,13 +539,21 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
 void HapticLoop::deform_main() {
   pin_to_cpu(config_.deform_cpu);
   deform_start_time_.store(static_cast<double>(clock_->now_ns()) * 1e-9);
-  DeformRequest r;
+  DeformRequest r, later;
   while (!stop_.load(std::memory_order_relaxed)) {
     if (!requests_->pop(r)) {
       nap_us(50);
       continue;
     }
+    // Behind schedule: one step for every request waiting (their edits kept).
+    std::uint64_t merged = 0;
+    while (requests_->pop(later)) {
+      merge_requests(r, later);
+      ++merged;
+    }
+    if (merged) deform_overruns_.fetch_add(merged, std::memory_order_relaxed);
     process(r, false);
+    if (merged) made_.fetch_add(merged, std::memory_order_release);
   }
 }
 
@@ -659,7 +667,8 @@ void HapticLoop::haptic_main() {
           backlog_[(backlog_head_ + backlog_size_) % kBacklog] = core_->request();
           ++backlog_size_;
         } else {
-          // The model is far behind: this step is dropped (the replay sees it missing).
+          // The model is far behind: fold this step into the last one waiting.
+          merge_requests(backlog_[(backlog_head_ + backlog_size_ - 1) % kBacklog], core_->request());
           deform_drops_.fetch_add(1, std::memory_order_relaxed);
           made_.fetch_add(1, std::memory_order_release);
         }

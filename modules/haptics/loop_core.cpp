@@ -53,6 +53,20 @@ void to_contacts(const ContactSet& set, std::vector<deform::Contact>& out) {
   }
 }
 
+void merge_requests(DeformRequest& into, const DeformRequest& later) {
+  into.edits.reset = into.edits.reset || later.edits.reset;
+  if (later.edits.material != 0) {
+    into.edits.material = later.edits.material;
+    into.edits.uniform = later.edits.uniform;
+    into.edits.map = later.edits.map;
+  }
+  into.generation = later.generation;
+  into.tick = later.tick;
+  into.time = later.time;
+  into.dt += later.dt;
+  into.contacts = later.contacts;
+}
+
 void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& r,
                           std::vector<deform::Contact>& scratch) {
   if (r.edits.reset) surface.reset();

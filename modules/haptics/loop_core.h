@@ -162,6 +162,12 @@ struct DeformRequest {
   DeformEdits edits;             ///< applied before the step
 };
 
+/// Folds a later request into an earlier one not yet made (a deformation
+/// thread that fell behind makes one step for both): edits in order, the
+/// later contacts, tick and time, and the sum of the steps (the local models
+/// integrate exactly over any step, so the surface keeps time).
+void merge_requests(DeformRequest& into, const DeformRequest& later);
+
 /// Applies a request to a surface: edits, contacts, step. `scratch` keeps
 /// its capacity between calls. Throws only what the surface's edits throw
 /// for bad materials (they were validated before they were queued).

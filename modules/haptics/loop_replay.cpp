@@ -36,11 +36,12 @@ LoopReplay::LoopReplay(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::Ma
                        deform::SurfaceOptions options, const CoreConfig& config, std::vector<ProbeSetup> setups)
     : session_(std::make_unique<Session>(std::move(mesh), std::move(materials), options, config, std::move(setups))) {}
 
-// Whether the live loop made `generation` (it drops steps only when far behind).
-bool LoopReplay::made_live(const LoopRecording& rec, std::uint64_t generation) {
+// The live loop's record of `generation`, or null when it folded that step
+// into a later one (it does so only when it fell behind).
+const DeformRecord* LoopReplay::made_live(const LoopRecording& rec, std::uint64_t generation) {
   const auto it = std::lower_bound(rec.deforms.begin(), rec.deforms.end(), generation,
                                    [](const DeformRecord& d, std::uint64_t g) { return d.generation < g; });
-  return it != rec.deforms.end() && it->generation == generation;
+  return it != rec.deforms.end() && it->generation == generation ? &*it : nullptr;
 }
 
 // Makes the pending steps up to `generation`, skipping those the live loop dropped.
@@ -51,9 +52,13 @@ void LoopReplay::catch_up(const LoopRecording& rec, std::uint64_t generation, st
       throw std::invalid_argument("replay: deformation step " + std::to_string(session_->generation() + 1) +
                                   " used by tick " + std::to_string(tick) + " is missing from the recording");
     }
-    const DeformRequest r = pending_.front();
+    DeformRequest r = pending_.front();
     pending_.pop_front();
-    if (made_live(rec, r.generation)) session_->deform(r);
+    // A folded step: only its edits (the next made step covers its time);
+    // a made one: the step the live loop took (dt summed over folded ones).
+    const DeformRecord* d = made_live(rec, r.generation);
+    r.dt = d ? d->dt : 0.0;
+    session_->deform(r);
   }
 }
 

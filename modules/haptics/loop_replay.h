@@ -64,7 +64,7 @@ class LoopReplay {
   std::uint64_t tick() const { return session_->tick_count(); }
 
  private:
-  bool made_live(const LoopRecording& rec, std::uint64_t generation);
+  static const DeformRecord* made_live(const LoopRecording& rec, std::uint64_t generation);
   void catch_up(const LoopRecording& rec, std::uint64_t generation, std::uint64_t tick, bool strict);
 
   std::unique_ptr<Session> session_;
