@@ -203,18 +203,20 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
       render::SurfaceView surface_view(scene.mesh);
       view_scene.add(surface_view.actor());
       view_scene.look_at(surface_view.bounds(), Vec3(0.3, -1.0, 0.6), Vec3::UnitZ());
-      std::vector<float> stream;
-      // The first take holds the whole stream; upload it once.
-      loop.take_surface_changes(stream);
-      if (!stream.empty()) surface_view.update_all(stream);
+      // The view reads the loop's mailbox directly (the first read holds
+      // the whole stream, uploaded once).
+      core::SurfaceMailbox& box = loop.surface_changes();
+      surface_view.update(box.stream(), box.begin_read());
+      box.end_read();
       render_ready.store(true);
       auto next = std::chrono::steady_clock::now();
       while (rendering.load()) {
         next += std::chrono::microseconds(16667);
         std::this_thread::sleep_until(next);
-        const auto ranges = loop.take_surface_changes(stream);
         const auto f0 = std::chrono::steady_clock::now();
-        if (!ranges.empty()) surface_view.update(stream, ranges);
+        const auto ranges = box.begin_read();
+        if (!ranges.empty()) surface_view.update(box.stream(), ranges);
+        box.end_read();
         for (const auto& r : ranges) uploaded += 16ull * (r.end - r.begin);
         view_scene.window().render();
         frame_ms_sum += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - f0).count();

@@ -429,7 +429,7 @@ void MainWindow::install_organ(render::Organ organ) {
       show_error(QString("Could not add a mouse probe: %1").arg(e.what()));
     }
   }
-  stream_.clear();
+  need_full_sync_ = true;
   view_at_rest_ = true;
   pull_surface();
 
@@ -520,7 +520,7 @@ void MainWindow::apply_material() {
     show_error(QString("Could not apply the material: %1").arg(e.what()));
     return;
   }
-  stream_.clear();
+  need_full_sync_ = true;
   pull_surface();
   save_settings();
 }
@@ -534,7 +534,7 @@ void MainWindow::add_probe() {
     show_error(QString("Could not add a probe: %1").arg(e.what()));
     return;
   }
-  stream_.clear();
+  need_full_sync_ = true;
   refresh_probe_list();
 }
 
@@ -554,7 +554,7 @@ bool MainWindow::add_device_probe(const QString& plugin, const QString& options)
     return false;
   }
   clear_error();
-  stream_.clear();
+  need_full_sync_ = true;
   refresh_probe_list();
   statusBar()->showMessage("Added a " + plugin + " device", 5000);
   return true;
@@ -645,7 +645,7 @@ void MainWindow::remove_selected_probe() {
     probe_views_.erase(it);
   }
   workbench_.remove_probe(id);
-  stream_.clear();
+  need_full_sync_ = true;
   pull_surface();
   refresh_probe_list();
 }
@@ -666,7 +666,7 @@ void MainWindow::refresh_probe_list() {
 void MainWindow::reset() {
   workbench_.reset();
   plot_->clear();
-  stream_.clear();
+  need_full_sync_ = true;
   pull_surface();
   statusBar()->showMessage("Reset", 3000);
 }
@@ -720,7 +720,7 @@ int MainWindow::mouse_probe_for(const Vec3& rest) {
     show_error(QString("Could not add a probe: %1").arg(e.what()));
     return 0;
   }
-  stream_.clear();
+  need_full_sync_ = true;
   return id;
 }
 
@@ -813,14 +813,21 @@ void MainWindow::pull_surface() {
   if (!view_) return;
   if (!workbench_.loop()) {
     if (!view_at_rest_) {
-      stream_.assign(4 * view_->mesh().vertex_count(), 0.0f);
-      view_->update_all(stream_);
+      const std::vector<float> rest(4 * view_->mesh().vertex_count(), 0.0f);
+      view_->update_all(rest);
       view_at_rest_ = true;
     }
     return;
   }
-  const auto ranges = workbench_.take_surface_changes(stream_);
-  if (!ranges.empty()) view_->update(stream_, ranges);
+  // The view copies the changed blocks straight from the loop's mailbox
+  // (a new view or loop, or a reset: everything once).
+  const bool everything = view_at_rest_ || need_full_sync_;
+  need_full_sync_ = false;
+  workbench_.pull_surface(
+      [&](std::span<const float> stream, std::span<const IndexRange> ranges) {
+        if (!ranges.empty()) view_->update(stream, ranges);
+      },
+      everything);
   view_at_rest_ = false;
 }
 

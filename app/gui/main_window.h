@@ -162,8 +162,8 @@ class MainWindow : public QMainWindow {
   double press_depth_ = 0;   // m, from the wheel while pressed
   bool loading_settings_ = true;  // no saving while the window is being built
 
-  // Render stream mirror (4 floats per vertex) and whether the view is at rest.
-  std::vector<float> stream_;
+  // Whether the view must take every vertex next, and whether it is at rest.
+  bool need_full_sync_ = true;  // the view needs every vertex at the next pull (new organ, loop or reset)
   bool view_at_rest_ = true;
 
   // Clock and rates.

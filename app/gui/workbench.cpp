@@ -277,6 +277,17 @@ std::vector<IndexRange> Workbench::take_surface_changes(std::vector<float>& stre
   return loop_->take_surface_changes(stream);
 }
 
+bool Workbench::pull_surface(
+    const std::function<void(std::span<const float>, std::span<const IndexRange>)>& sink, bool everything) {
+  if (!loop_) return false;
+  core::SurfaceMailbox& box = loop_->surface_changes();
+  if (everything) box.mark_all();
+  const auto ranges = box.begin_read();
+  sink(box.stream(), ranges);
+  box.end_read();
+  return true;
+}
+
 void Workbench::reset() {
   for (Probe& p : probes_) {
     if (p.host_fed) {

@@ -19,6 +19,8 @@
 #include "render/organ.h"
 
 #include <cstdint>
+#include <functional>
+#include <span>
 #include <memory>
 #include <string>
 #include <vector>
@@ -128,6 +130,12 @@ class Workbench {
   /// The stream entries (4 floats per vertex) changed since the last call,
   /// from the loop (everything after a rebuild); empty without a loop.
   std::vector<IndexRange> take_surface_changes(std::vector<float>& stream);
+  /// Hands `sink` the loop's surface mailbox (the whole stream, 4 floats per
+  /// vertex) and the ranges changed since the last call, for the view to
+  /// copy straight from (no intermediate copy); `everything`: every vertex
+  /// is handed over this time. Returns false without a loop.
+  bool pull_surface(const std::function<void(std::span<const float>, std::span<const IndexRange>)>& sink,
+                    bool everything = false);
 
   /// Surface to rest (a command; the loop keeps running), every mouse probe lifted.
   void reset();
