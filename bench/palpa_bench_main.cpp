@@ -15,6 +15,7 @@
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
 #include "haptics/probe_tick.h"
+#include "haptics/session.h"
 #include "mesh/generate.h"
 #include "mesh/io.h"
 #include "palpa_bench_cgal.h"
@@ -338,12 +339,12 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
   const double t_mesh = elapsed_ns(t0, Clock::now()) * 1e-9;
   const std::size_t V = m->vertex_count();
   t0 = Clock::now();
-  const collision::VertexTree tree(m->positions);
+  const auto tree_ptr = std::make_shared<const collision::VertexTree>(std::span<const Vec3>(m->positions));
+  const collision::VertexTree& tree = *tree_ptr;
   const double t_tree = elapsed_ns(t0, Clock::now()) * 1e-9;
   t0 = Clock::now();
   const bench::CgalClosestPoint cgal(*m);
   const double t_cgal = elapsed_ns(t0, Clock::now()) * 1e-9;
-  deform::DeformableSurface surface(m, deform::MaterialArrays::uniform(V, deform::Material{}));
 
   // One seeded trajectory of three probes; the 1-probe runs use probe 0's.
   t0 = Clock::now();
@@ -364,45 +365,63 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
   shape.kind = deform::ShapeKind::Wendland;
   shape.radius = kShapeRadius;
   const haptics::ForceParams force_params;
+  // The session model: this mesh and tree, 1 kHz ticks, a deformation step
+  // every kDeformEvery ticks.
+  auto model = std::make_shared<haptics::SessionModel>();
+  model->mesh = m;
+  model->tree = tree_ptr;
+  model->config.rate_hz = 1.0 / kTickPeriod;
+  model->config.deform_rate_hz = 1.0 / kDeformPeriod;
+  model->config.shape = shape;
+  model->config.force = force_params;
+  model->config.velocity_cutoff_hz = 1e4;  // the paths are smooth: velocity by plain finite difference
   const json base = {{"mesh", mc.name}, {"mesh_source", mc.source}, {"vertices", V},
                      {"triangles", m->triangle_count()}, {"quick", opt.quick}};
 
   for (int probes : {1, kMaxProbes}) {
-    // ---- Haptic ticks, the surface stepped every kDeformEvery ticks (steps timed too).
-    surface.reset();
-    std::array<haptics::ProbeMemory, kMaxProbes> memory{};
-    std::array<haptics::ProbeOutput, kMaxProbes> outputs{};
-    std::array<haptics::ProbeInput, kMaxProbes> inputs{};
-    std::vector<deform::Contact> contacts;
-    contacts.reserve(kMaxProbes);
+    // ---- Session steps: the haptic tick of every probe (timed: LoopCore::tick,
+    // i.e. mapping, input checks, collision, eq. 4) and, every kDeformEvery
+    // ticks on this thread, the deformation step (timed for the active-set figure).
+    std::vector<haptics::ProbeSetup> setups(static_cast<std::size_t>(probes));
+    for (auto& su : setups) {
+      su.name = "bench probe";
+      su.spec.position_dof = 3;  // no force output: the model's force, no safety ramp
+      su.safety.max_jump = 1e3;
+    }
+    haptics::Session session(model, deform::MaterialArrays::uniform(V, deform::Material{}), setups);
+    deform::DeformableSurface& surface = session.surface();
+    std::array<haptics::ProbeTickInput, kMaxProbes> inputs{};
+    std::array<haptics::ProbeTickResult, kMaxProbes> results{};
     std::vector<double> tick_ns, step_ns;
     tick_ns.reserve(plan.ticks);
     step_ns.reserve(plan.ticks);
     double active_sum = 0;
     std::size_t contact_ticks = 0, walk_ticks = 0;
     for (std::size_t k = 0; k < paths.ticks; ++k) {
-      for (int p = 0; p < probes; ++p) inputs[p] = {paths.at(k, p), paths.velocity_at(k, p)};
+      const double t = static_cast<double>(k) * kTickPeriod;
+      for (int p = 0; p < probes; ++p) {
+        PalpaDeviceSample& smp = inputs[p].sample;
+        const Vec3 x = paths.at(k, p);
+        for (int a = 0; a < 3; ++a) smp.position[a] = x[a];
+        smp.orientation[0] = 1;
+        smp.status = PALPA_STATUS_VALID;
+        smp.sequence = k + 1;
+        smp.time = t;
+      }
       const auto a = Clock::now();
-      haptics::haptic_tick(surface, tree, std::span(inputs.data(), probes), std::span(memory.data(), probes),
-                           std::span(outputs.data(), probes), force_params, shape);
+      const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
+                                    std::span<haptics::ProbeTickResult>(results.data(), probes));
       const auto b = Clock::now();
       if (k >= plan.warmup) {
         tick_ns.push_back(elapsed_ns(a, b));
         for (int p = 0; p < probes; ++p) {
-          contact_ticks += outputs[p].in_contact;
-          walk_ticks += outputs[p].path == collision::ContactPath::Walk;
+          contact_ticks += results[p].in_contact;
+          walk_ticks += results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Walk);
         }
       }
-      // Every kDeformEvery ticks, on this thread: feed the contacts to the
-      // surface and advance it (timed for the active-set step figure).
-      if (k % kDeformEvery == kDeformEvery - 1) {
-        contacts.clear();
-        for (int p = 0; p < probes; ++p) {
-          if (outputs[p].in_contact) contacts.push_back(outputs[p].contact);
-        }
-        surface.set_contacts(contacts);
+      if (due) {
         const auto c = Clock::now();
-        surface.step(kDeformPeriod);
+        session.deform(session.core().request());
         const auto d = Clock::now();
         if (k >= plan.warmup) {
           step_ns.push_back(elapsed_ns(c, d));

@@ -155,7 +155,7 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
       return;
     case LoopCommandKind::ResetSurface:
       state_.pending.reset = true;
-      for (auto& p : state_.probes) p.memory = ProbeMemory{};  // every contact starts afresh
+      for (auto& m : state_.memory) m = ProbeMemory{};  // every contact starts afresh
       return;
     default: break;
   }
@@ -163,6 +163,7 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
   CoreProbeState& st = state_.probes[c.probe];
   if (c.kind == LoopCommandKind::AddProbe) {
     st = CoreProbeState{};
+    state_.memory[c.probe] = ProbeMemory{};
     st.active = true;
     st.spec = c.prepared.spec;
     st.safety = c.prepared.safety;
@@ -176,7 +177,10 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
     case LoopCommandKind::ClutchOn: st.clutch_command = true; break;
     case LoopCommandKind::ClutchOff: st.clutch_command = false; break;
     case LoopCommandKind::SetMapping: st.mapping.set_mapping(c.mapping); break;
-    case LoopCommandKind::RemoveProbe: st = CoreProbeState{}; break;
+    case LoopCommandKind::RemoveProbe:
+      st = CoreProbeState{};
+      state_.memory[c.probe] = ProbeMemory{};
+      break;
     default: break;
   }
 }
@@ -250,25 +254,34 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     cond[i] = c;
     probe_inputs_[dense].position = st.have_world ? st.world : parking_;
     probe_inputs_[dense].velocity = st.velocity;
-    memory_[dense] = st.memory;
     slot_of_[dense] = static_cast<std::uint8_t>(i);
     ++dense;
   }
 
-  // Collision and eq. (4) force for every probe (section III.C, III.E).
+  // Collision and eq. (4) force for every probe (section III.C, III.E). The
+  // memories are used in place when the slots have no holes (the usual case).
+  const bool packed = dense == n;
+  ProbeMemory* memory = state_.memory.data();
+  if (!packed) {
+    for (std::size_t d = 0; d < dense; ++d) memory_[d] = state_.memory[slot_of_[d]];
+    memory = memory_.data();
+  }
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
-              std::span<ProbeMemory>(memory_.data(), dense), std::span<ProbeOutput>(probe_outputs_.data(), dense),
+              std::span<ProbeMemory>(memory, dense), std::span<ProbeOutput>(probe_outputs_.data(), dense),
               state_.force, state_.shape);
+  if (!packed)
+    for (std::size_t d = 0; d < dense; ++d) state_.memory[slot_of_[d]] = memory_[d];
 
   // Safety per device, results, and the contacts for the deformation model.
   contacts.tick = tick;
   contacts.count = 0;
-  for (std::size_t i = 0; i < n; ++i) results[i] = ProbeTickResult{};
+  if (!packed)
+    for (std::size_t i = 0; i < n; ++i)
+      if (!state_.probes[i].active) results[i] = ProbeTickResult{};  // a free slot
   for (std::size_t d = 0; d < dense; ++d) {
     const std::size_t i = slot_of_[d];
     const ProbeOutput& out = probe_outputs_[d];
     CoreProbeState& st = state_.probes[i];
-    st.memory = memory_[d];
     ProbeTickResult& r = results[i];
     const std::uint32_t c = cond[i];
     const bool input_ok = !(c & (kSafetyBadInput | kSafetyDeviceFault | kSafetyNotReady | kSafetyStale | kSafetyJump));
@@ -299,6 +312,7 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     r.enabled = st.safety.enabled() ? 1 : 0;
     r.clutched = st.mapping.engaged() ? 1 : 0;
     r.fault = static_cast<std::uint8_t>(st.safety.fault());
+    r.path = static_cast<std::uint8_t>(out.path);
 
     if (touching && contacts.count < kMaxProbes) {
       ContactRecord& cr = contacts.contacts[contacts.count++];
@@ -329,7 +343,9 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     request_.tick = tick;
     request_.time = t;
     request_.dt = dt;
-    request_.contacts = contacts;
+    request_.contacts.tick = contacts.tick;
+    request_.contacts.count = contacts.count;
+    for (std::uint32_t k = 0; k < contacts.count; ++k) request_.contacts.contacts[k] = contacts.contacts[k];
     request_.edits = state_.pending;
     state_.pending = DeformEdits{};
   }

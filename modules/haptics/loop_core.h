@@ -116,6 +116,7 @@ struct ProbeTickResult {
   std::uint8_t enabled = 0;
   std::uint8_t clutched = 0;
   std::uint8_t fault = 0;       ///< SafetyFault
+  std::uint8_t path = 0;        ///< collision::ContactPath of the contact query
 };
 
 /// A contact as plain data, for the deformation thread.
@@ -188,13 +189,13 @@ struct CoreProbeState {
   double last_sample_time = 0;        ///< s
   Vec3 last_sample_world = Vec3::Zero();
   bool have_sample = false;
-  ProbeMemory memory;                 ///< collision cursor and contact hysteresis
 };
 
 /// The whole mutable state of a LoopCore: plain, copyable data. A copy is a
 /// snapshot; LoopCore::set_state restores it exactly.
 struct CoreState {
   std::array<CoreProbeState, kMaxProbes> probes{};
+  std::array<ProbeMemory, kMaxProbes> memory{};  ///< per slot: collision cursor and contact hysteresis
   ForceParams force;                  ///< eq. (4) parameters in force now
   deform::ShapeFunction shape;        ///< shape function given to contacts now
   double last_tick_time = 0;          ///< s
@@ -253,7 +254,7 @@ class LoopCore {
   DeformRequest request_;
   std::array<ProbeInput, kMaxProbes> probe_inputs_{};
   std::array<ProbeOutput, kMaxProbes> probe_outputs_{};
-  std::array<ProbeMemory, kMaxProbes> memory_{};
+  std::array<ProbeMemory, kMaxProbes> memory_{};    // gathered memories when slots have holes
   std::array<std::uint8_t, kMaxProbes> slot_of_{};  // dense index -> slot, for haptic_tick
   Vec3 range_lo_, range_hi_;   // positions outside are clamped onto this box (no contact possible)
   Vec3 parking_;               // where a probe with no valid position yet is placed (far from the surface)
