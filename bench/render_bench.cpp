@@ -13,6 +13,7 @@
 
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
+#include "haptics/session.h"
 #include "mesh/generate.h"
 #include "render/offscreen.h"
 #include "render/scene.h"
@@ -111,11 +112,30 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
   palpa::deform::Material mat;
   mat.stiffness = 200;
   mat.damping = 2;
-  palpa::deform::DeformableSurface surface(mesh, palpa::deform::MaterialArrays::uniform(mesh->vertex_count(), mat));
-  const auto first = surface.take_dirty_ranges();  // everything, at rest
+  // The session: one probe per contact (no force output), pressed kDepth
+  // into the surface along the contact's normal; a deformation step per tick.
+  auto model = std::make_shared<palpa::haptics::SessionModel>();
+  model->mesh = mesh;
+  model->tree = std::shared_ptr<const palpa::collision::VertexTree>(&tree, [](const palpa::collision::VertexTree*) {});
+  model->config.rate_hz = 1.0 / kTickDt;
+  model->config.deform_rate_hz = 1.0 / kTickDt;
+  model->config.shape = {palpa::deform::ShapeKind::Wendland, kSupport};
+  model->config.force.max_force = 1e3;
+  std::vector<palpa::haptics::ProbeSetup> setups(static_cast<std::size_t>(contacts));
+  for (auto& su : setups) {
+    su.name = "render bench probe";
+    su.spec.position_dof = 3;
+    su.safety.max_jump = 1e3;
+  }
+  palpa::haptics::Session session(model, palpa::deform::MaterialArrays::uniform(mesh->vertex_count(), mat), setups);
+  palpa::deform::DeformableSurface& surface = session.surface();
+  const auto first = IndexRange{0, static_cast<palpa::Index>(mesh->vertex_count())};
+  std::vector<palpa::haptics::ProbeTickInput> inputs(setups.size());
+  std::vector<palpa::haptics::ProbeTickResult> results(setups.size());
+  std::uint64_t tick = 0;
   scene.renderer()->RemoveAllViewProps();
   for (SurfaceView* v : views) {
-    v->update(surface.stream(), first);
+    v->update(surface.stream(), std::span<const IndexRange>(&first, 1));
     scene.add(v->actor());
   }
   scene.look_at(static_view.bounds(), Vec3(0.2, -0.6, 1.0), Vec3::UnitZ());
@@ -131,13 +151,24 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
   std::vector<double> changed, step_ms;
   GlUploadCounter counter;
   double t = 0;
-  std::vector<palpa::deform::Contact> cs(static_cast<std::size_t>(contacts));
   for (int f = 0; f < o.warmup + o.frames; ++f) {
     // The core: move the contacts and deform for one frame's time.
     const auto s0 = Clock::now();
-    for (int k = 0; k < contacts; ++k) cs[static_cast<std::size_t>(k)] = contact_at(*mesh, tree, k, contacts, t);
-    surface.set_contacts(cs);
-    for (int s = 0; s < static_cast<int>(std::lround(kFrameDt / kTickDt)); ++s) surface.step(kTickDt);
+    for (int s = 0; s < static_cast<int>(std::lround(kFrameDt / kTickDt)); ++s) {
+      const double ts = t + s * kTickDt;
+      for (int k = 0; k < contacts; ++k) {
+        const palpa::deform::Contact c = contact_at(*mesh, tree, k, contacts, ts);
+        const Vec3 tip = c.point - c.depth * c.normal;
+        auto& smp = inputs[static_cast<std::size_t>(k)].sample;
+        smp.orientation[0] = 1;
+        for (int a = 0; a < 3; ++a) smp.position[a] = tip[a];
+        smp.status = PALPA_STATUS_VALID;
+        smp.sequence = tick + 1;
+        smp.time = ts;
+      }
+      session.step(ts, inputs, results);
+      ++tick;
+    }
     t += kFrameDt;
     const auto ranges = surface.take_dirty_ranges();
     const double step = std::chrono::duration<double, std::milli>(Clock::now() - s0).count();
