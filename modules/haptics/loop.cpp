@@ -179,6 +179,17 @@ void HapticLoop::init(deform::MaterialArrays materials, std::vector<ProbeBinding
 
   // The model: two identical replicas of the surface; the core on the tree.
   const double k = max_stiffness(materials);
+  {
+    bool same = true;
+    const deform::Material first = materials.at(0);
+    for (std::size_t i = 1; same && i < materials.size(); ++i) same = materials.at(static_cast<Index>(i)) == first;
+    material_source_.uniform = same;
+    material_source_.material = first;
+    if (!same) {
+      material_source_.map = std::make_shared<const deform::MaterialArrays>(materials);
+      material_source_.map_ptr = material_source_.map.get();
+    }
+  }
   replicas_[0] = std::make_unique<deform::DeformableSurface>(mesh_, materials, options_);
   replicas_[1] = std::make_unique<deform::DeformableSurface>(mesh_, std::move(materials), options_);
   if (setups.empty()) {
@@ -431,6 +442,8 @@ CommandTicket HapticLoop::set_force(const ForceParams& force) {
 
 CommandTicket HapticLoop::set_material(const deform::Material& m) {
   deform::validate_material(m, "material");
+  material_source_ = MaterialSource{};
+  material_source_.material = m;
   LoopCommand c;
   c.kind = LoopCommandKind::SetMaterial;
   c.material = m;
@@ -445,8 +458,12 @@ CommandTicket HapticLoop::set_materials(deform::MaterialArrays materials) {
   c.materials = kept.get();
   {
     std::lock_guard<std::mutex> lock(command_mutex_);
-    kept_maps_.push_back(std::move(kept));
+    kept_maps_.push_back(kept);
   }
+  material_source_ = MaterialSource{};
+  material_source_.uniform = false;
+  material_source_.map = kept;
+  material_source_.map_ptr = kept.get();
   return push(c);
 }
 
@@ -454,6 +471,42 @@ CommandTicket HapticLoop::reset_surface() {
   LoopCommand c;
   c.kind = LoopCommandKind::ResetSurface;
   return push(c);
+}
+
+SessionState HapticLoop::snapshot() const {
+  if (running_.load()) throw std::logic_error("loop: snapshot() needs the loop stopped");
+  const deform::DeformableSurface& s = *replicas_[current_.load()];
+  SessionState out;
+  out.core = core_->state();
+  out.surface = s.state();
+  out.contacts.assign(s.contacts().begin(), s.contacts().end());
+  out.tick = tick_;
+  out.generation = meta_[current_.load()].generation;
+  out.model_time = meta_[current_.load()].time;
+  out.materials = material_source_;
+  return out;
+}
+
+void HapticLoop::restore(const SessionState& st) {
+  if (running_.load()) throw std::logic_error("loop: restore() needs the loop stopped");
+  for (std::size_t i = 0; i < kMaxProbes; ++i)
+    if (st.core.probes[i].active != used_[i])
+      throw std::invalid_argument("loop: the snapshot's probe slot " + std::to_string(i) + " is " +
+                                  (st.core.probes[i].active ? "used" : "free") + " but the loop's is not");
+  for (auto& r : replicas_) {
+    if (st.materials.uniform)
+      r->set_uniform_material(st.materials.material);
+    else if (st.materials.map_ptr)
+      r->set_materials(*st.materials.map_ptr);
+    r->restore(st.surface, st.contacts);
+    r->take_dirty_ranges();
+  }
+  core_->set_state(st.core);
+  tick_ = st.tick;
+  meta_[0] = meta_[1] = {st.generation, st.model_time};
+  material_source_ = st.materials;
+  if (st.materials.map) kept_maps_.push_back(st.materials.map);
+  mailbox_->publish_all(replicas_[current_.load()]->stream());
 }
 
 LoopView HapticLoop::view() const {

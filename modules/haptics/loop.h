@@ -238,6 +238,12 @@ class HapticLoop {
   const deform::DeformableSurface& surface() const { return *replicas_[current_.load()]; }
   /// The core's state (probe memories, filters...); only while stopped.
   const CoreState& core_state() const { return core_->state(); }
+  /// The whole session state (only while stopped: both replicas are level
+  /// then), and its restore into both replicas and the core (only while
+  /// stopped; the probes' slots must match). Throws std::logic_error while
+  /// running, std::invalid_argument for a snapshot that does not fit.
+  SessionState snapshot() const;
+  void restore(const SessionState& s);
 
  private:
   struct Queued {
@@ -265,6 +271,7 @@ class HapticLoop {
   std::array<ProbeBinding, kMaxProbes> bindings_{};
   std::array<bool, kMaxProbes> used_{};
   std::vector<std::shared_ptr<const deform::MaterialArrays>> kept_maps_;
+  MaterialSource material_source_;  // the material map of the latest edit (for snapshots)
   // Haptic side: the device of each slot (null: free).
   std::array<devices::Device*, kMaxProbes> devices_{};
 
