@@ -23,11 +23,11 @@
 //     queues carrying every device sample, every force and every model step
 //     for the session recorder; LoopReplay re-runs them bit for bit.
 
+#include "core/spsc_queue.h"
+#include "core/triple_buffer.h"
 #include "devices/device.h"
 #include "haptics/loop_core.h"
 #include "haptics/loop_stats.h"
-#include "haptics/spsc_queue.h"
-#include "haptics/triple_buffer.h"
 
 #include <atomic>
 #include <memory>
