@@ -18,7 +18,7 @@
 #include "render/offscreen.h"
 #include "render/scene.h"
 #include "render/surface_view.h"
-#include "render/upload_counter.h"
+#include "upload_counter.h"  // tests/render: a test aid
 
 #include <GL/gl.h>
 #include <vtkRenderWindow.h>
@@ -42,6 +42,7 @@ using palpa::Index;
 using palpa::IndexRange;
 using palpa::Vec3;
 using namespace palpa::render;
+using palpa::render::test::GlUploadCounter;
 using Clock = std::chrono::steady_clock;
 
 constexpr double kRadius = 0.1;       // sphere radius, m

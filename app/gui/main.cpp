@@ -3,7 +3,7 @@
 // PNG. `palpa render [options]` is the headless job with palpa-render's options.
 
 #include "app/gui/main_window.h"
-#include "render/render_job.h"
+#include "app/render/render_job.h"
 
 #include <QApplication>
 
@@ -19,15 +19,15 @@ namespace {
 int run_headless(const std::vector<std::string>& args, const char* default_output) {
   try {
     bool help = false;
-    auto options = palpa::render::parse_render_args(args, &help);
+    auto options = palpa::app::parse_render_args(args, &help);
     if (help) {
-      std::cout << palpa::render::render_usage("palpa render");
+      std::cout << palpa::app::render_usage("palpa render");
       return 0;
     }
     bool has_output = false;
     for (const auto& a : args) has_output |= a == "--output";
     if (!has_output) options.output = default_output;
-    palpa::render::run_render_job(options, std::cout);
+    palpa::app::run_render_job(options, std::cout);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "palpa: %s\n", e.what());

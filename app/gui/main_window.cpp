@@ -392,8 +392,8 @@ bool MainWindow::open_mesh(const QString& path) {
     return false;
   }
   try {
-    const auto unit = static_cast<render::MeshUnit>(unit_box_->currentIndex());
-    render::Organ organ = render::load_organ(path.toStdString(), unit);
+    const auto unit = static_cast<mesh::MeshUnit>(unit_box_->currentIndex());
+    mesh::Organ organ = mesh::load_organ(path.toStdString(), unit);
     install_organ(std::move(organ));
   } catch (const std::exception& e) {
     show_error(QString("Could not open %1: %2").arg(info.fileName(), QString::fromStdString(e.what())));
@@ -407,7 +407,7 @@ bool MainWindow::open_mesh(const QString& path) {
 
 void MainWindow::open_default_organ() {
   try {
-    install_organ(render::load_default_organ());
+    install_organ(mesh::load_default_organ());
     clear_error();
     if (!workbench_.organ().note.empty()) statusBar()->showMessage(QString::fromStdString(workbench_.organ().note));
   } catch (const std::exception& e) {
@@ -416,7 +416,7 @@ void MainWindow::open_default_organ() {
 }
 
 // Builds the new surface and view first; only then replaces the old ones.
-void MainWindow::install_organ(render::Organ organ) {
+void MainWindow::install_organ(mesh::Organ organ) {
   auto view = std::make_unique<render::SurfaceView>(organ.mesh);
   workbench_.set_organ(std::move(organ));  // all or nothing
   if (view_) vtk_->renderer->RemoveActor(view_->actor());

@@ -105,7 +105,7 @@ class MainWindow : public QMainWindow {
   void save_settings() const;
   void show_error(const QString& text);
   void clear_error();
-  void install_organ(render::Organ organ);
+  void install_organ(mesh::Organ organ);
   void add_recent(const QString& path);
   void rebuild_recent_menu();
   void apply_material();

@@ -63,7 +63,7 @@ haptics::ProbeBinding Workbench::binding(const Probe& p) {
   return b;
 }
 
-std::unique_ptr<haptics::HapticLoop> Workbench::build_loop(const render::Organ& organ,
+std::unique_ptr<haptics::HapticLoop> Workbench::build_loop(const mesh::Organ& organ,
                                                            const deform::MaterialArrays& materials,
                                                            const haptics::LoopConfig& config,
                                                            const std::vector<Probe>& probes) const {
@@ -113,7 +113,7 @@ void Workbench::feed(const Probe& p) const {
 
 // ---------------------------------------------------------------------------
 // Organ and material.
-void Workbench::set_organ(render::Organ organ) {
+void Workbench::set_organ(mesh::Organ organ) {
   // Build everything first, then swap (nothing changes on a throw).
   auto materials = deform::MaterialArrays::uniform(organ.mesh->vertex_count(), to_material(material_));
   std::vector<Probe> next = probes_;

@@ -16,7 +16,7 @@
 
 #include "devices/loader.h"
 #include "haptics/loop.h"
-#include "render/organ.h"
+#include "mesh/organ.h"
 
 #include <cstdint>
 #include <functional>
@@ -82,9 +82,9 @@ class Workbench {
 
   /// Replaces the organ: a new loop on it; probes stay, mouse probes are
   /// unplaced. Strong guarantee: if building throws, nothing changes.
-  void set_organ(render::Organ organ);
+  void set_organ(mesh::Organ organ);
   bool has_organ() const { return organ_.mesh != nullptr; }
-  const render::Organ& organ() const { return organ_; }
+  const mesh::Organ& organ() const { return organ_; }
 
   /// New material for every vertex and new force/shape parameters, sent to
   /// the running loop as edits (probes and dent kept). Strong guarantee:
@@ -151,7 +151,7 @@ class Workbench {
 
  private:
   haptics::LoopConfig loop_config() const;
-  std::unique_ptr<haptics::HapticLoop> build_loop(const render::Organ& organ, const deform::MaterialArrays& materials,
+  std::unique_ptr<haptics::HapticLoop> build_loop(const mesh::Organ& organ, const deform::MaterialArrays& materials,
                                                   const haptics::LoopConfig& config,
                                                   const std::vector<Probe>& probes) const;
   // Stops the current loop and starts `next` (may be null) with `probes`.
@@ -162,7 +162,7 @@ class Workbench {
   static haptics::ProbeBinding binding(const Probe& p);
 
   devices::PluginLoader loader_;
-  render::Organ organ_;
+  mesh::Organ organ_;
   MaterialSettings material_;
   std::vector<Probe> probes_;
   std::vector<std::shared_ptr<devices::Device>> retired_;  // removed, maybe still read by the loop

@@ -34,13 +34,13 @@
 // Time comes from a LoopClock: the monotonic clock by default, or a test's
 // ManualClock so threaded tests advance the loop tick by tick.
 
-#include "devices/device.h"
+#include "core/spsc_queue.h"
 #include "core/surface_mailbox.h"
+#include "core/triple_buffer.h"
+#include "devices/device.h"
 #include "haptics/loop_core.h"
 #include "haptics/loop_stats.h"
 #include "haptics/session.h"
-#include "haptics/spsc_queue.h"
-#include "haptics/triple_buffer.h"
 
 #include <atomic>
 #include <memory>

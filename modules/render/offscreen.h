@@ -22,7 +22,7 @@
 // window of one backend while a window of the other is alive is refused.
 // Multisampling is off: on llvmpipe it costs about 4x for no visible gain.
 //
-// Which executables link what: palpa-render, the render tests and
+// Which executables link what: palpa-render, the render and render-job tests and
 // palpa-render-bench link OSMesa first (OSMesa default; EGL works there
 // with Mesa drivers only). palpa (Qt) and palpa-render-bench-gpu do not:
 // there EGL serves both llvmpipe and GPUs, and OSMesa is refused clearly.

@@ -11,7 +11,7 @@
 #include "common/test_support.h"
 #include "mesh/generate.h"
 #include "mesh/io.h"
-#include "render/organ.h"
+#include "mesh/organ.h"
 #include "render/surface_view.h"
 
 #include <QApplication>
@@ -93,7 +93,7 @@ class MainWindowTest : public ::testing::Test {
 
 TEST_F(MainWindowTest, OpensOnTheDefaultOrganAndDrawsIt) {
   auto w = open_window();
-  const render::Organ expected = render::load_default_organ();
+  const mesh::Organ expected = mesh::load_default_organ();
   ASSERT_TRUE(w->workbench().has_organ());
   EXPECT_EQ(w->workbench().organ().mesh->vertex_count(), expected.mesh->vertex_count());
   EXPECT_TRUE(w->facts_text().contains(QString::number(expected.mesh->vertex_count()) + " vertices"))

@@ -19,8 +19,8 @@
 namespace palpa::app {
 namespace {
 
-render::Organ sphere_organ() {
-  render::Organ o;
+mesh::Organ sphere_organ() {
+  mesh::Organ o;
   o.name = "sphere";
   auto m = std::make_shared<mesh::SurfaceMesh>(mesh::make_sphere(8000, 0.05));
   // Exactly radial normals, so the virtual vertex is exactly under the probe.

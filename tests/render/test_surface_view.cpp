@@ -8,8 +8,8 @@
 
 #include "render/offscreen.h"
 #include "render/scene.h"
-#include "render/upload_counter.h"
 #include "render_test_support.h"
+#include "upload_counter.h"
 
 #include <vtkActor.h>
 #include <vtkDataObject.h>
@@ -28,6 +28,8 @@ namespace palpa::render {
 namespace {
 
 using test::DentScene;
+using test::GlUploadCounter;
+using test::UploadCounts;
 
 constexpr int kSize = 400;  // pixels
 

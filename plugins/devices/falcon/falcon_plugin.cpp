@@ -23,10 +23,10 @@
 //   max_stiffness=1500  N/m, declared stable stiffness
 //   motor_limit=10000   largest motor command magnitude (all three scaled together)
 
+#include "core/triple_buffer.h"
 #include "devices/plugin_support.h"
 #include "falcon_kinematics.h"
 #include "falcon_protocol.h"
-#include "haptics/triple_buffer.h"
 
 #include <libusb.h>
 
@@ -424,8 +424,8 @@ class FalconDevice final : public DeviceImpl {
   libusb_device_handle* handle_ = nullptr;
   std::thread thread_;
   std::atomic<bool> stop_{false}, running_{false}, homed_{false};
-  palpa::haptics::TripleBuffer<PalpaForceCommand> commands_;
-  palpa::haptics::TripleBuffer<PalpaDeviceSample> samples_;
+  palpa::TripleBuffer<PalpaForceCommand> commands_;
+  palpa::TripleBuffer<PalpaDeviceSample> samples_;
   std::uint64_t sequence_ = 0;  // I/O thread only
   mutable std::mutex message_mutex_;
   std::string error_;

@@ -20,8 +20,8 @@
 //   send_rate=1000     most SENSOR messages per second, Hz
 //   max_force=10       N, the force limit declared to the host
 
+#include "core/triple_buffer.h"
 #include "devices/plugin_support.h"
-#include "haptics/triple_buffer.h"
 
 #include <Eigen/Geometry>
 #include <arpa/inet.h>
@@ -372,8 +372,8 @@ class IgtlDevice final : public DeviceImpl {
   int listen_fd_ = -1;
   std::thread thread_;
   std::atomic<bool> stop_{false}, running_{false};
-  palpa::haptics::TripleBuffer<PalpaForceCommand> commands_;
-  palpa::haptics::TripleBuffer<PalpaDeviceSample> samples_;
+  palpa::TripleBuffer<PalpaForceCommand> commands_;
+  palpa::TripleBuffer<PalpaDeviceSample> samples_;
   std::uint64_t sequence_ = 0, poses_ = 0, bad_messages_ = 0;  // I/O thread only
   double last_pose_time_ = 0;                                    // I/O thread only
   mutable std::mutex message_mutex_;

@@ -17,8 +17,8 @@
 //   rate=60         nominal rate at which the host feeds, Hz
 //   buttons=3       number of buttons the host reports
 
+#include "core/triple_buffer.h"
 #include "devices/plugin_support.h"
-#include "haptics/triple_buffer.h"
 
 #include <atomic>
 
@@ -77,7 +77,7 @@ class MouseDevice final : public DeviceImpl {
   std::uint32_t buttons_ = 3;
   std::uint64_t sequence_ = 0;  // feeding thread only
   std::atomic<bool> started_{false}, fed_{false};
-  palpa::haptics::TripleBuffer<PalpaDeviceSample> samples_;
+  palpa::TripleBuffer<PalpaDeviceSample> samples_;
 };
 
 std::unique_ptr<DeviceImpl> make_mouse(const Options& o) { return std::make_unique<MouseDevice>(o); }

@@ -10,8 +10,8 @@
 //   rate=1000        nominal sample rate reported in the spec, Hz
 //   max_force=10     N; the spec's maximum force (0: no force output)
 
+#include "core/triple_buffer.h"
 #include "devices/plugin_support.h"
-#include "haptics/triple_buffer.h"
 #include "trajectory.h"
 
 #include <atomic>
@@ -110,7 +110,7 @@ class ScriptedDevice final : public DeviceImpl {
   std::size_t cursor_ = 0;        // reader thread only
   std::uint64_t sequence_ = 0;    // reader thread only
   mutable std::mutex message_mutex_;
-  mutable palpa::haptics::TripleBuffer<PalpaForceCommand> commands_;
+  mutable palpa::TripleBuffer<PalpaForceCommand> commands_;
 };
 
 std::unique_ptr<DeviceImpl> make_scripted(const Options& o) { return std::make_unique<ScriptedDevice>(o); }

@@ -15,8 +15,8 @@
 //   deadzone=0.05      fraction of full scale ignored around rest
 //   workspace=0.1      half-size of the cube the probe stays in, m (around the start point)
 
+#include "core/triple_buffer.h"
 #include "devices/plugin_support.h"
-#include "haptics/triple_buffer.h"
 #include "spacemouse_reports.h"
 
 #include <hidapi.h>
@@ -170,7 +170,7 @@ class SpaceMouseDevice final : public DeviceImpl {
   hid_device* device_ = nullptr;
   std::thread thread_;
   std::atomic<bool> stop_{false}, running_{false};
-  palpa::haptics::TripleBuffer<Published> published_;
+  palpa::TripleBuffer<Published> published_;
   std::array<double, 3> position_{};  // reader thread only
   double last_read_ = 0;              // reader thread only
   std::uint64_t sequence_ = 0;        // reader thread only

@@ -7,8 +7,8 @@
 #include "deform/material.h"
 #include "deform/shape_function.h"
 #include "haptics/force.h"
+#include "mesh/organ.h"
 #include "render/offscreen.h"
-#include "render/organ.h"
 #include "render/surface_view.h"
 
 #include <filesystem>
@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-namespace palpa::render {
+namespace palpa::app {
 
 /// One probe: pressed `depth` (m) into the surface at the surface point
 /// nearest to `point` (m), along the inward surface normal there.
@@ -28,12 +28,12 @@ struct ProbeSpec {
 
 struct RenderJobOptions {
   std::filesystem::path mesh;            ///< empty: the bundled default organ
-  MeshUnit unit = MeshUnit::Auto;
+  mesh::MeshUnit unit = mesh::MeshUnit::Auto;
   std::vector<ProbeSpec> probes;         ///< empty: one probe 6 mm into the organ's highest point
   std::filesystem::path output = "palpa-render.png";
   int width = 960, height = 720;         ///< pixels
-  GlBackend backend = GlBackend::Auto;
-  UploadPath path = UploadPath::PartialTextureBuffer;
+  render::GlBackend backend = render::GlBackend::Auto;
+  render::UploadPath path = render::UploadPath::PartialTextureBuffer;
   double settle_time = 1.0;              ///< s of simulated time before the picture
   double dt = 1e-3;                      ///< haptic and deformation step, s
   deform::Material material{.model = deform::LocalModelKind::Linear, .mass = 1e-3, .damping = 2.0,
@@ -46,7 +46,7 @@ struct RenderJobOptions {
 /// What the job did.
 struct RenderJobResult {
   std::string organ;                     ///< name and size
-  GlBackend backend = GlBackend::Auto;
+  render::GlBackend backend = render::GlBackend::Auto;
   std::string gl_renderer;
   struct Probe {
     Vec3 tip = Vec3::Zero();             ///< m
@@ -60,14 +60,14 @@ struct RenderJobResult {
 };
 
 /// Parses command-line arguments (without the program name). Throws
-/// RenderError with a message naming the option, e.g.
+/// render::RenderError with a message naming the option, e.g.
 /// "--probe: expected X,Y,Z,DEPTH in metres, got '1,2'". "--help" sets *help.
 RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* help = nullptr);
 /// The option summary printed by --help.
 std::string render_usage(const std::string& program);
 
-/// Runs the job, printing progress to `log`. Throws RenderError or
+/// Runs the job, printing progress to `log`. Throws render::RenderError or
 /// mesh::MeshError with a message naming what failed.
 RenderJobResult run_render_job(const RenderJobOptions& options, std::ostream& log);
 
-}  // namespace palpa::render
+}  // namespace palpa::app

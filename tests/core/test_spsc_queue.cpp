@@ -1,14 +1,14 @@
 // SPSC queue: FIFO order, bounded capacity without blocking, and every item
 // delivered exactly once in order across threads.
 
-#include "haptics/spsc_queue.h"
+#include "core/spsc_queue.h"
 
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <thread>
 
-namespace palpa::haptics {
+namespace palpa {
 namespace {
 
 TEST(SpscQueue, CapacityIsRoundedUpToAPowerOfTwo) {
@@ -54,4 +54,4 @@ TEST(SpscQueue, ThreadedDeliveryIsCompleteAndOrdered) {
 }
 
 }  // namespace
-}  // namespace palpa::haptics
+}  // namespace palpa

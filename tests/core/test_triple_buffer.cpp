@@ -1,7 +1,7 @@
 // Triple buffer: latest-value semantics, and no torn or out-of-order values
 // under a concurrent writer and reader.
 
-#include "haptics/triple_buffer.h"
+#include "core/triple_buffer.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <atomic>
 #include <thread>
 
-namespace palpa::haptics {
+namespace palpa {
 namespace {
 
 struct Payload {
@@ -83,4 +83,4 @@ TEST(TripleBuffer, ConcurrentValuesAreWholeAndMonotone) {
 }
 
 }  // namespace
-}  // namespace palpa::haptics
+}  // namespace palpa

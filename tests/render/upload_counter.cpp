@@ -1,12 +1,12 @@
 // GLEW pointer wrapping for upload accounting.
 
-#include "render/upload_counter.h"
+#include "upload_counter.h"
 
 #include <GL/glew.h>
 
 #include <stdexcept>
 
-namespace palpa::render {
+namespace palpa::render::test {
 namespace {
 
 // The counter's state; one counter at a time, rendering thread only.
@@ -62,4 +62,4 @@ GlUploadCounter::~GlUploadCounter() {
 UploadCounts GlUploadCounter::counts() const { return g_counts; }
 void GlUploadCounter::reset() { g_counts = {}; }
 
-}  // namespace palpa::render
+}  // namespace palpa::render::test

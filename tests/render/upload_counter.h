@@ -1,12 +1,13 @@
 #pragma once
-// Counts every buffer upload made through GLEW's glBufferData and
-// glBufferSubData (VTK's and ours), by target, so tests and the benchmark
-// can see what a frame really sends to the GPU, independent of the adapter's
-// own accounting.
+// A test aid (not part of the render module): counts every buffer upload
+// made through GLEW's glBufferData and glBufferSubData (VTK's and ours), by
+// target, so tests and palpa-render-bench can see what a frame really sends
+// to the GPU, independent of the adapter's own accounting. Library
+// palpa_test_upload_counter (tests/render/upload_counter.cmake).
 
 #include <cstdint>
 
-namespace palpa::render {
+namespace palpa::render::test {
 
 /// Bytes and calls since construction or reset().
 struct UploadCounts {
@@ -34,4 +35,4 @@ class GlUploadCounter {
   void reset();
 };
 
-}  // namespace palpa::render
+}  // namespace palpa::render::test

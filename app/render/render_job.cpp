@@ -1,6 +1,6 @@
 // The headless render job: organ, probes, settling, offscreen picture.
 
-#include "render/render_job.h"
+#include "app/render/render_job.h"
 
 #include "collision/contact.h"
 #include "collision/vertex_tree.h"
@@ -15,7 +15,24 @@
 #include <cstdlib>
 #include <sstream>
 
-namespace palpa::render {
+namespace palpa::app {
+
+// What the job uses of mesh/ and render/, by its short names.
+using mesh::load_default_organ;
+using mesh::load_organ;
+using mesh::Organ;
+using mesh::parse_mesh_unit;
+using render::gl_backend_name;
+using render::GlBackend;
+using render::Image;
+using render::OffscreenScene;
+using render::parse_gl_backend;
+using render::ProbeView;
+using render::RenderError;
+using render::SurfaceView;
+using render::UploadPath;
+using render::write_png;
+
 namespace {
 
 // Parses "a,b,c,..." into exactly n finite numbers.
@@ -254,4 +271,4 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   return result;
 }
 
-}  // namespace palpa::render
+}  // namespace palpa::app

@@ -1,6 +1,6 @@
 // Organ loading with unit handling.
 
-#include "render/organ.h"
+#include "mesh/organ.h"
 
 #include "mesh/generate.h"
 
@@ -14,7 +14,7 @@
 #define PALPA_DEFAULT_DATA_DIR "data"
 #endif
 
-namespace palpa::render {
+namespace palpa::mesh {
 
 MeshUnit parse_mesh_unit(std::string_view name) {
   if (name == "auto") return MeshUnit::Auto;
@@ -54,20 +54,20 @@ std::filesystem::path default_organ_path() { return data_dir() / "default_organ.
 
 Organ load_organ(const std::filesystem::path& path, MeshUnit unit) {
   // Load in file units, then scale to metres (normals and topology do not change).
-  mesh::LoadOptions opt;
+  LoadOptions opt;
   opt.unit_m = 1.0;
   opt.keep_largest_component = true;
-  mesh::SurfaceMesh m = mesh::load_mesh(path, opt);
+  SurfaceMesh m = load_mesh(path, opt);
   Organ o;
   o.name = path.filename().string();
-  mesh::MeshFacts raw = mesh::analyse(m);
+  MeshFacts raw = analyse(m);
   const Vec3 ext = raw.bbox_max - raw.bbox_min;
   o.unit_guessed = unit == MeshUnit::Auto;
   o.unit_m = o.unit_guessed ? auto_unit_metres(ext.maxCoeff()) : unit_metres(unit);
   if (o.unit_m != 1.0)
     for (Vec3& p : m.positions) p *= o.unit_m;
-  o.facts = mesh::analyse(m);
-  o.mesh = std::make_shared<const mesh::SurfaceMesh>(std::move(m));
+  o.facts = analyse(m);
+  o.mesh = std::make_shared<const SurfaceMesh>(std::move(m));
   return o;
 }
 
@@ -82,9 +82,9 @@ Organ load_default_organ() {
   Organ o;
   o.name = "default organ";
   o.note = "default organ generated (" + path.string() + " not found)";
-  o.mesh = std::make_shared<const mesh::SurfaceMesh>(mesh::make_organ(40000));
-  o.facts = mesh::analyse(*o.mesh);
+  o.mesh = std::make_shared<const SurfaceMesh>(make_organ(40000));
+  o.facts = analyse(*o.mesh);
   return o;
 }
 
-}  // namespace palpa::render
+}  // namespace palpa::mesh

@@ -10,7 +10,7 @@
 #include <string>
 #include <string_view>
 
-namespace palpa::render {
+namespace palpa::mesh {
 
 /// Length unit of a mesh file.
 enum class MeshUnit : unsigned char {
@@ -31,12 +31,12 @@ double auto_unit_metres(double largest_extent);
 
 /// A loaded organ and what is known about it.
 struct Organ {
-  std::shared_ptr<const mesh::SurfaceMesh> mesh;
+  std::shared_ptr<const SurfaceMesh> mesh;
   std::string name;        ///< file name, or "default organ"
   double unit_m = 1.0;     ///< metres per file unit used
   bool unit_guessed = false;
   std::string note;        ///< anything the user should know (generated instead of loaded...)
-  mesh::MeshFacts facts;
+  MeshFacts facts;
 };
 
 /// Folder of the bundled data: $PALPA_DATA_DIR if set, else the source tree's data/.
@@ -45,10 +45,10 @@ std::filesystem::path data_dir();
 std::filesystem::path default_organ_path();
 
 /// Loads, cleans (largest component only) and scales a mesh file. Throws
-/// mesh::MeshError naming the file.
+/// MeshError naming the file.
 Organ load_organ(const std::filesystem::path& path, MeshUnit unit = MeshUnit::Auto);
-/// The bundled default organ (metres); generated with mesh::make_organ()
+/// The bundled default organ (metres); generated with make_organ()
 /// when the file is missing (said in Organ::note).
 Organ load_default_organ();
 
-}  // namespace palpa::render
+}  // namespace palpa::mesh

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-namespace palpa::haptics {
+namespace palpa {
 
 template <class T>
 class SpscQueue {
@@ -75,4 +75,4 @@ class SpscQueue {
   std::size_t head_cache_ = 0;  // consumer's copy of head_
 };
 
-}  // namespace palpa::haptics
+}  // namespace palpa

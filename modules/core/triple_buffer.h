@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <type_traits>
 
-namespace palpa::haptics {
+namespace palpa {
 
 template <class T>
 class TripleBuffer {
@@ -75,4 +75,4 @@ class TripleBuffer {
   alignas(64) std::uint8_t front_ = 2;  // owned by the reader
 };
 
-}  // namespace palpa::haptics
+}  // namespace palpa

@@ -1,8 +1,7 @@
 // palpa-render: renders an organ pressed by probes to a PNG with no display
-// (OSMesa by default, EGL on a GPU). See render/render_job.h.
+// (OSMesa by default, EGL on a GPU). See app/render/render_job.h.
 
-#include "mesh/io.h"
-#include "render/render_job.h"
+#include "app/render/render_job.h"
 
 #include <cstdio>
 #include <iostream>
@@ -13,12 +12,12 @@ int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   try {
     bool help = false;
-    const auto options = palpa::render::parse_render_args(args, &help);
+    const auto options = palpa::app::parse_render_args(args, &help);
     if (help) {
-      std::cout << palpa::render::render_usage("palpa-render");
+      std::cout << palpa::app::render_usage("palpa-render");
       return 0;
     }
-    palpa::render::run_render_job(options, std::cout);
+    palpa::app::run_render_job(options, std::cout);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "palpa-render: %s\n", e.what());

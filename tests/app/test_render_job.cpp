@@ -1,13 +1,18 @@
 // The headless job behind palpa-render: options and a full run.
 
-#include "render/render_job.h"
+#include "app/render/render_job.h"
 
 #include "common/test_support.h"
 
 #include <sstream>
 
-namespace palpa::render {
+namespace palpa::app {
 namespace {
+
+using render::GlBackend;
+using render::Image;
+using render::read_png;
+using render::RenderError;
 
 std::string parse_error(const std::vector<std::string>& args) {
   try {
@@ -67,4 +72,4 @@ TEST(RenderJob, PressesTheDefaultOrganAndWritesAPicture) {
 }
 
 }  // namespace
-}  // namespace palpa::render
+}  // namespace palpa::app

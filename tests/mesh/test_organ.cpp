@@ -1,10 +1,10 @@
 // Organ loading: unit guessing, the default organ, real organs.
 
-#include "render/organ.h"
+#include "mesh/organ.h"
 
 #include "common/test_support.h"
 
-namespace palpa::render {
+namespace palpa::mesh {
 namespace {
 
 TEST(Organ, UnitGuessMakesTheLargestExtentOrganSized) {
@@ -45,10 +45,10 @@ TEST(Organ, MissingFileErrorNamesIt) {
   try {
     load_organ(path);
     FAIL() << "no error";
-  } catch (const mesh::MeshError& e) {
+  } catch (const MeshError& e) {
     EXPECT_EQ(std::string(e.what()).rfind(path.string(), 0), 0u) << e.what();
   }
 }
 
 }  // namespace
-}  // namespace palpa::render
+}  // namespace palpa::mesh
