@@ -5,7 +5,7 @@
 #include "collision/contact.h"
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
-#include "haptics/probe_tick.h"
+#include "haptics/session.h"
 #include "render/probe_view.h"
 #include "render/scene.h"
 
@@ -189,7 +189,13 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   if (!organ.note.empty()) log << organ.note << "\n";
 
   // The probes: tips below the surface points nearest to the requested ones.
-  collision::VertexTree tree(mesh.positions);
+  haptics::CoreConfig config;
+  config.rate_hz = 1.0 / o.dt;
+  config.deform_rate_hz = 1.0 / o.dt;  // a deformation step every tick
+  config.force = o.force;
+  config.shape = o.shape;
+  const auto model = haptics::SessionModel::make(organ.mesh, {}, config);
+  const collision::VertexTree& tree = *model->tree;
   std::vector<ProbeSpec> specs = o.probes;
   if (specs.empty()) {
     Index top = 0;
@@ -197,29 +203,41 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
       if (mesh.positions[i].z() > mesh.positions[top].z()) top = i;
     specs.push_back({mesh.positions[top], 0.006});
   }
-  std::vector<haptics::ProbeInput> inputs(specs.size());
+  std::vector<Vec3> tips(specs.size());
   std::vector<Vec3> axes(specs.size());
   for (std::size_t k = 0; k < specs.size(); ++k) {
     const auto nearest = tree.nearest(specs[k].point);
     const auto sp = collision::locate_surface_point(mesh, specs[k].point, nearest.vertex);
-    inputs[k].position = sp.point - specs[k].depth * sp.normal;
+    tips[k] = sp.point - specs[k].depth * sp.normal;
     axes[k] = sp.normal;
   }
 
-  // Settle: haptic ticks feed contacts to the surface, which steps.
-  deform::DeformableSurface surface(organ.mesh, deform::MaterialArrays::uniform(mesh.vertex_count(), o.material));
-  std::vector<haptics::ProbeMemory> memory(specs.size());
-  std::vector<haptics::ProbeOutput> outputs(specs.size());
-  std::vector<deform::Contact> contacts;
+  // Settle: the session steps (haptic tick of every probe, then the
+  // deformation step with their contacts). The probes have no force output:
+  // the session reports the model's force.
+  if (specs.size() > haptics::kMaxProbes)
+    throw RenderError("at most " + std::to_string(haptics::kMaxProbes) + " probes, got " + std::to_string(specs.size()));
+  std::vector<haptics::ProbeSetup> setups(specs.size());
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    setups[k].name = "probe " + std::to_string(k + 1);
+    setups[k].spec.position_dof = 3;
+  }
+  haptics::Session session(model, deform::MaterialArrays::uniform(mesh.vertex_count(), o.material), setups);
+  std::vector<haptics::ProbeTickInput> inputs(specs.size());
+  std::vector<haptics::ProbeTickResult> outputs(specs.size());
   const long steps = std::max(1L, std::lround(o.settle_time / o.dt));
   for (long s = 0; s < steps; ++s) {
-    haptics::haptic_tick(surface, tree, inputs, memory, outputs, o.force, o.shape);
-    contacts.clear();
-    for (const auto& out : outputs)
-      if (out.in_contact) contacts.push_back(out.contact);
-    surface.set_contacts(contacts);
-    surface.step(o.dt);
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      PalpaDeviceSample& smp = inputs[k].sample;
+      smp.orientation[0] = 1;
+      for (int a = 0; a < 3; ++a) smp.position[a] = tips[k][a];
+      smp.status = PALPA_STATUS_VALID;
+      smp.sequence = static_cast<std::uint64_t>(s) + 1;
+      smp.time = static_cast<double>(s) * o.dt;
+    }
+    session.step(static_cast<double>(s) * o.dt, inputs, outputs);
   }
+  deform::DeformableSurface& surface = session.surface();
 
   // Offscreen scene: the surface, the probes, a camera looking at the first probe.
   OffscreenScene scene(o.width, o.height, o.backend);
@@ -234,7 +252,7 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   for (std::size_t k = 0; k < specs.size(); ++k) {
     auto pv = std::make_unique<ProbeView>(0.008 * size, 0.15 * size);
     pv->set_force_scale(0.25 * size / std::max(o.force.max_force, 1e-9));
-    pv->set_state(inputs[k].position, axes[k], outputs[k].force, outputs[k].in_contact, k == 0);
+    pv->set_state(tips[k], axes[k], haptics::to_vec(outputs[k].force_world), outputs[k].in_contact != 0, k == 0);
     pv->add_to(scene.renderer());
     probe_views.push_back(std::move(pv));
   }
@@ -258,10 +276,10 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   result.max_displacement = view.max_displacement();
   for (std::size_t k = 0; k < specs.size(); ++k) {
     RenderJobResult::Probe p;
-    p.tip = inputs[k].position;
-    p.force = outputs[k].force;
-    p.depth = outputs[k].height.depth;
-    p.in_contact = outputs[k].in_contact;
+    p.tip = tips[k];
+    p.force = haptics::to_vec(outputs[k].force_world);
+    p.depth = outputs[k].depth;
+    p.in_contact = outputs[k].in_contact != 0;
     result.probes.push_back(p);
     log << "probe " << k + 1 << ": depth " << p.depth * 1e3 << " mm, force " << p.force.norm() << " N"
         << (p.in_contact ? "" : " (no contact)") << "\n";
