@@ -568,6 +568,7 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   mailbox_->publish(replicas_[other]->stream(), replicas_[other]->take_dirty_ranges());
   meta_[other] = {r.generation, r.time};
   current_.store(other, std::memory_order_seq_cst);
+  made_tick_.store(r.tick + 1, std::memory_order_release);  // the haptic thread now ticks against this step
   if (deform_records_) {
     DeformRecord rec;
     rec.generation = r.generation;
@@ -585,7 +586,6 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   meta_[cur] = meta_[other];
   deform_hist_.record(clock_->now_ns() - t0);
   deform_steps_.fetch_add(1, std::memory_order_relaxed);
-  made_tick_.store(r.tick + 1, std::memory_order_release);
   made_.fetch_add(1, std::memory_order_release);
 }
 

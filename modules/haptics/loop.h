@@ -201,7 +201,7 @@ class HapticLoop {
   /// True once the haptic thread has applied the command (or at once when stopped).
   bool applied(CommandTicket t) const { return applied_.load(std::memory_order_acquire) >= t; }
   /// True once command t is applied and a deformation step made after it
-  /// (its edits have reached both replicas).
+  /// is published (the haptic thread ticks against a model with its edits).
   bool in_effect(CommandTicket t) const {
     return applied(t) && made_tick_.load(std::memory_order_acquire) >= applied_tick_.load(std::memory_order_acquire);
   }
@@ -297,7 +297,7 @@ class HapticLoop {
   CommandTicket next_ticket_ = 0;
   std::atomic<CommandTicket> applied_{0};
   std::atomic<std::uint64_t> applied_tick_{0};  // tick at which the latest command was applied
-  std::atomic<std::uint64_t> made_tick_{0};     // tick of the request of the latest step made (+1)
+  std::atomic<std::uint64_t> made_tick_{0};     // tick of the request of the latest step published (+1)
 
   // Haptic thread -> deformation thread: requests; a small backlog holds
   // those the queue could not take.
