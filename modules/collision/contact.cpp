@@ -616,9 +616,10 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   }
   // Declined: the proxy stays while the probe is within the cone of half
   // angle atan(kProxyCone) below it; beyond, it slides along the surface
-  // towards the probe's side by the excess, but no farther than the probe
-  // moved across the normal this tick (so it cannot run away where the
-  // probe is deeper than the centre of curvature), never leaving the surface.
+  // towards the probe's side by the excess, but no more than kProxyChase
+  // times as far as the probe moved across the normal this tick (so it
+  // cannot run away where the probe is deeper than the centre of
+  // curvature), never leaving the surface.
   const Vec3 pn = proxy_weights[0] * mesh.normals[pt[0]] + proxy_weights[1] * mesh.normals[pt[1]] +
                   proxy_weights[2] * mesh.normals[pt[2]];
   const double pn_len = pn.norm();
@@ -633,7 +634,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
     if (excess > 0 && lateral_len > 0) {
       const Vec3 motion = probe - last_probe;
       const double across = (motion - motion.dot(n) * n).norm();
-      move = (std::min(excess, across) / lateral_len) * lateral;
+      move = (std::min(excess, kProxyChase * across) / lateral_len) * lateral;
     }
   }
   const SurfacePoint slid = slide_surface_point(mesh, proxy_triangle, proxy_weights, move, probe);
@@ -646,6 +647,20 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
       commit_walk(mesh, probe, sp, nearest, cursor, ans);
       return ans;
     }
+  }
+  // The probe came out above the proxy. Across a convex fold it may still be
+  // inside under another part of the surface: before letting go, the tree's
+  // answer (the nearest vertex's surface point) decides; when the probe is
+  // below that, the contact goes on there (its depth, like the proxy's, is
+  // near zero at this moment, so the force does not jump).
+  if (!(slid.offset < 0)) {
+    ContactCursor probe_cursor = cursor;
+    const ContactAnswer fresh = query_contact(mesh, tree, probe, probe_cursor, false);
+    if (fresh.surface.triangle != kNoIndex && fresh.surface.offset < 0) {
+      cursor = probe_cursor;
+      return fresh;
+    }
+    cursor.tree = probe_cursor.tree;
   }
   ans.surface = slid;
   const mesh::Triangle& tri = mesh.triangles[slid.triangle];

@@ -141,9 +141,13 @@ SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, 
 /// Where the walk declines (deeper than half the focal distance), the proxy
 /// of track_contact holds while the probe's distance from the proxy's normal
 /// line is at most kProxyCone times its depth (a cone of half angle
-/// atan(0.5), about 27 degrees: a press roughly along the normal does not
+/// atan(0.25), about 14 degrees: a press roughly along the normal does not
 /// move the contact point).
-inline constexpr double kProxyCone = 0.5;
+inline constexpr double kProxyCone = 0.25;
+/// Beyond that cone the proxy moves towards the probe's side at most
+/// kProxyChase times as far as the probe moved across the proxy's normal
+/// (it catches up with a sliding probe, yet stops when the probe stops).
+inline constexpr double kProxyChase = 2.0;
 
 /// The contact query with a god-object proxy, for the haptic tick. When not
 /// `in_contact` (or without a last triangle) it is query_contact. In contact
@@ -158,12 +162,18 @@ inline constexpr double kProxyCone = 0.5;
 ///  2. otherwise the proxy stays while the probe lies within the cone of
 ///     half angle atan(kProxyCone) around the proxy's inward normal, and
 ///     beyond it slides along the surface (slide_surface_point) towards the
-///     probe's side by the excess, but at most as far as the probe moved
-///     across that normal since the last answer (so it cannot run away where
-///     the probe is deeper than the local centre of curvature);
+///     probe's side by the excess, but at most kProxyChase times as far as
+///     the probe moved across that normal since the last answer (so it
+///     cannot run away where the probe is deeper than the local centre of
+///     curvature);
 ///  3. from a new triangle the walk is tried again without the jump test
 ///     (Walk, same distance test); otherwise the proxy is the answer (path
-///     Proxy; nearest_vertex is its triangle's corner of largest weight).
+///     Proxy; nearest_vertex is its triangle's corner of largest weight);
+///  4. when the probe has come out above the proxy (offset >= 0), before the
+///     contact is let go the tree's answer (query_contact's) decides: across
+///     a convex fold the probe may still be below another part of the
+///     surface, and then the contact goes on there (path Tree; its depth is
+///     near zero then, as the proxy's is, so the force does not jump).
 /// The answer's offset is measured along the proxy's interpolated normal, so
 /// the caller's hysteretic height check holds the contact until the probe
 /// comes back above the surface at the proxy. Updates the cursor. No
