@@ -222,7 +222,7 @@ TEST(DeepPress, IssuesVerticalPressOnTheDefaultOrganNeverLetsGo) {
     if (touched && !(o.in_contact && f > 0)) ++drops;
     if (touched && f < last - 1e-12) ++decreases;
     if (o.in_contact) touched = true;
-    if (o.in_contact && k % 100 == 0) std::printf("  %9.2f   %7.3f\n", 1e3 * o.height.depth, f);
+    if (o.in_contact && k % 25 == 0) std::printf("  %9.2f   %7.3f\n", 1e3 * o.height.depth, f);
     last = f;
   }
   EXPECT_TRUE(touched);
