@@ -193,6 +193,28 @@ TEST(DeepPress, ThinOrganForceGrowsWithDepthToThreeTimesTheClampDepth) {
   press_everywhere(stiff, 16, 2, "cingulate gyrus, 800 N/m, step every 2 ticks");
 }
 
+TEST(DeepPress, ForceGrowsPastTheDrawnLimit) {
+  // The drawn dent stops at the surface's drawn-displacement limit (a
+  // fraction of the local thickness); the force on the probe does not.
+  PALPA_REQUIRE_SHARED_ORGANS();
+  Scene s = load(test::shared_organs_dir() / "bp3d_FMA72717_right_cingulate_gyrus.obj", 1e-3);
+  const Index v = static_cast<Index>(s.mesh->vertex_count() / 2);
+  const double depth_max = 3 * kMaxForce / kStiffness;
+  const int ticks = 2000;
+  const auto samples = press_along_normal(s, v, depth_max, ticks, 1);
+  const double speed = (depth_max + 0.002) / (ticks * kTick);
+  const ProbeOutput& last = samples.back().out;
+  const Index cv = last.contact.vertex;
+  ASSERT_LT(cv, s.mesh->vertex_count());
+  // The limit is far below the press and binds at the contact vertex.
+  EXPECT_LT(s.surface->drawn_limit(cv), 0.1 * depth_max);
+  EXPECT_NEAR(s.surface->drawn_height(cv), -s.surface->drawn_limit(cv), 1e-3 * s.surface->drawn_limit(cv));
+  // The force: the linear model at the full depth, clamped.
+  EXPECT_NEAR(last.normal_reaction, kStiffness * depth_max + kDamping * speed, 1e-6);
+  EXPECT_NEAR(last.force.norm(), kMaxForce, 1e-9);
+  EXPECT_EQ(last.contact.depth, last.height.depth);
+}
+
 TEST(DeepPress, SmallHeartForceGrowsWithDepth) {
   // coeur1 (27 x 39 x 29 mm): smaller than the shape function's support.
   PALPA_REQUIRE_SHARED_ORGANS();
