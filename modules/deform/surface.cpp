@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -53,6 +54,38 @@ std::vector<double> drawn_displacement_limits(const mesh::SurfaceMesh& mesh, dou
     limit[i] = std::min(thickness_fraction * limit[i], curvature_fraction * radius[i]);
   return limit;
 }
+
+namespace {
+
+// The limits of live surfaces, by mesh object and fractions, so that the
+// surfaces of one mesh (a loop's replicas) cast the rays once. Entries whose
+// mesh or limits are gone are dropped. Construction only: a lock is fine.
+std::shared_ptr<const std::vector<double>> shared_drawn_limits(
+    const std::shared_ptr<const mesh::SurfaceMesh>& mesh, double thickness_fraction, double curvature_fraction) {
+  struct Entry {
+    std::weak_ptr<const mesh::SurfaceMesh> mesh;
+    double thickness_fraction, curvature_fraction;
+    std::weak_ptr<const std::vector<double>> limits;
+  };
+  static std::mutex mutex;
+  static std::vector<Entry> entries;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    std::erase_if(entries, [](const Entry& e) { return e.mesh.expired() || e.limits.expired(); });
+    for (const Entry& e : entries) {
+      const bool same_mesh = !e.mesh.owner_before(mesh) && !mesh.owner_before(e.mesh);
+      if (same_mesh && e.thickness_fraction == thickness_fraction && e.curvature_fraction == curvature_fraction)
+        if (auto limits = e.limits.lock()) return limits;
+    }
+  }
+  auto limits = std::make_shared<const std::vector<double>>(
+      drawn_displacement_limits(*mesh, thickness_fraction, curvature_fraction));
+  std::lock_guard<std::mutex> lock(mutex);
+  entries.push_back({mesh, thickness_fraction, curvature_fraction, limits});
+  return limits;
+}
+
+}  // namespace
 
 // ---------------------------------------------------------------------------
 // Construction and materials.
@@ -117,8 +150,7 @@ DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> me
   } else if (options_.drawn_limits) {
     drawn_limits_ = options_.drawn_limits;
   } else {
-    drawn_limits_ = std::make_shared<const std::vector<double>>(
-        drawn_displacement_limits(*mesh_, options_.thickness_fraction, options_.curvature_fraction));
+    drawn_limits_ = shared_drawn_limits(mesh_, options_.thickness_fraction, options_.curvature_fraction);
   }
   drawn_limit_ = drawn_limits_->data();
 

@@ -61,9 +61,10 @@ struct SurfaceOptions {
   /// on a 42 mm organ's thin rim, 0.3 none (tests/render DeepPressImage).
   double curvature_fraction = 0.3;
   /// Limits (m per vertex) computed beforehand with
-  /// drawn_displacement_limits for this mesh and these fractions, e.g. to
-  /// share them between surfaces of one mesh; null: computed at construction
-  /// (a ray cast per vertex, about a second per million vertices).
+  /// drawn_displacement_limits for this mesh and these fractions; null: taken
+  /// from another live surface of the same mesh object with the same
+  /// fractions, else computed at construction (a ray cast per vertex, about
+  /// a second per million vertices).
   std::shared_ptr<const std::vector<double>> drawn_limits;
   /// A vertex outside every field leaves the active set once |h|, |v| dt and
   /// |q| are all at or below this (m); its state is then set exactly to rest.
@@ -145,6 +146,8 @@ class DeformableSurface {
   double drawn_height(Index i) const;
   /// Largest drawn displacement of vertex i, m (+infinity when unlimited).
   double drawn_limit(Index i) const { return drawn_limit_[i]; }
+  /// All of them (m per vertex), shareable with SurfaceOptions::drawn_limits.
+  const std::shared_ptr<const std::vector<double>>& drawn_limits() const { return drawn_limits_; }
   /// Deformed unit normal normalize(N0 + sum Ni) (eq. 3).
   Vec3 deformed_normal(Index i) const;
 

@@ -158,6 +158,21 @@ TEST(DrawnLimit, ActiveStepEqualsFullStepWhereTheLimitBinds) {
 
 TEST(DrawnLimit, SharedLimitsAreUsedAndChecked) {
   const auto m = flat_ellipsoid();
+  {
+    // Two surfaces of one mesh object cast the rays once; other fractions
+    // or another mesh object get their own.
+    DeformableSurface a(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+    DeformableSurface b(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+    EXPECT_EQ(a.drawn_limits(), b.drawn_limits());
+    SurfaceOptions other;
+    other.curvature_fraction = 0.2;
+    DeformableSurface c(m, MaterialArrays::uniform(m->vertex_count(), linear()), other);
+    EXPECT_NE(c.drawn_limits(), a.drawn_limits());
+    const auto copy = std::make_shared<const mesh::SurfaceMesh>(*m);
+    DeformableSurface d(copy, MaterialArrays::uniform(m->vertex_count(), linear()));
+    EXPECT_NE(d.drawn_limits(), a.drawn_limits());
+    EXPECT_EQ(*d.drawn_limits(), *a.drawn_limits());
+  }
   SurfaceOptions o;
   o.drawn_limits = std::make_shared<const std::vector<double>>(m->vertex_count(), 0.001);
   DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()), o);
