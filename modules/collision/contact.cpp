@@ -415,42 +415,66 @@ SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe
   return walk(mesh, probe, start_triangle, nullptr, frame, unused);
 }
 
+namespace {
+
+// The walk of the contact queries from `start` (with the jump test from
+// `jump_from` when given), not yet committed to the cursor.
+SurfacePoint walk_from(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
+                       ContactCursor& cursor, Index& nearest) {
+  return walk(mesh, probe, start, jump_from, cursor.frame, nearest);
+}
+
+// Fills `ans` (path Walk) and the cursor with a walk's answer.
+void commit_walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, const SurfacePoint& sp, Index nearest,
+                 ContactCursor& cursor, ContactAnswer& ans) {
+  ans.surface = sp;
+  ans.nearest_vertex = nearest;
+  ans.path = ContactPath::Walk;
+  cursor.triangle = sp.triangle;
+  cursor.barycentric = sp.barycentric;
+  cursor.probe = probe;
+  // Ask for the triangle across the nearest edge now, and once it has
+  // arrived (the next query on this triangle) for its far corner, so that
+  // stepping across costs no wait on memory. No effect on results.
+  const Vec3& b = sp.barycentric;
+  const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
+  const Index next = mesh.triangle_neighbors.size() == mesh.triangle_count()
+                         ? mesh.triangle_neighbors[cursor.triangle][k]
+                         : kNoIndex;
+  if (next < mesh.triangle_count()) {
+    if (next == cursor.ahead) {
+      const Index far = mesh.triangles[next][0] + mesh.triangles[next][1] + mesh.triangles[next][2] -
+                        cursor.frame.corners[(k + 1) % 3] - cursor.frame.corners[(k + 2) % 3];
+      if (far < mesh.vertex_count()) {
+        __builtin_prefetch(&mesh.positions[far]);
+        __builtin_prefetch(&mesh.normals[far]);
+      }
+    } else {
+      __builtin_prefetch(&mesh.triangles[next]);
+    }
+  }
+  cursor.ahead = next;
+}
+
+// The walk branch of query_contact: walks and, when it answers, commits.
+bool walk_answer(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
+                 ContactCursor& cursor, ContactAnswer& ans) {
+  Index nearest = kNoIndex;
+  const SurfacePoint sp = walk_from(mesh, probe, start, jump_from, cursor, nearest);
+  if (sp.triangle == kNoIndex) return false;
+  commit_walk(mesh, probe, sp, nearest, cursor, ans);
+  return true;
+}
+
+}  // namespace
+
 ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact) {
   ContactAnswer ans;
   if (!probe.allFinite()) return ans;
   // In contact: walk from the last triangle (declines on a jump).
   if (in_contact && cursor.triangle < mesh.triangle_count()) {
-    Index nearest = kNoIndex;
-    ans.surface = walk(mesh, probe, cursor.triangle, &cursor.probe, cursor.frame, nearest);
-    if (ans.surface.triangle != kNoIndex) {
-      ans.nearest_vertex = nearest;
-      ans.path = ContactPath::Walk;
-      cursor.triangle = ans.surface.triangle;
-      cursor.probe = probe;
-      // Ask for the triangle across the nearest edge now, and once it has
-      // arrived (the next query on this triangle) for its far corner, so that
-      // stepping across costs no wait on memory. No effect on results.
-      const Vec3& b = ans.surface.barycentric;
-      const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
-      const Index next = mesh.triangle_neighbors.size() == mesh.triangle_count()
-                             ? mesh.triangle_neighbors[cursor.triangle][k]
-                             : kNoIndex;
-      if (next < mesh.triangle_count()) {
-        if (next == cursor.ahead) {
-          const Index far = mesh.triangles[next][0] + mesh.triangles[next][1] + mesh.triangles[next][2] -
-                            cursor.frame.corners[(k + 1) % 3] - cursor.frame.corners[(k + 2) % 3];
-          if (far < mesh.vertex_count()) {
-            __builtin_prefetch(&mesh.positions[far]);
-            __builtin_prefetch(&mesh.normals[far]);
-          }
-        } else {
-          __builtin_prefetch(&mesh.triangles[next]);
-        }
-      }
-      cursor.ahead = next;
-      return ans;
-    }
+    if (walk_answer(mesh, probe, cursor.triangle, &cursor.probe, cursor, ans)) return ans;
   }
   // Otherwise: exact nearest vertex by the tree's local search, then the
   // surface point around it.
@@ -461,7 +485,192 @@ ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   ans.surface = locate_surface_point(mesh, probe, nv.vertex);
   ans.path = ContactPath::Tree;
   cursor.triangle = ans.surface.triangle;
+  cursor.barycentric = ans.surface.barycentric;
   cursor.probe = probe;
+  return ans;
+}
+
+SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, const Vec3& barycentric,
+                                 const Vec3& displacement, const Vec3& probe) {
+  if (triangle >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
+      mesh.vertex_triangles.rows() != mesh.vertex_count() || !displacement.allFinite() || !probe.allFinite())
+    return SurfacePoint{};
+  // Weights on the start triangle: the given ones when they are weights.
+  Vec3 b = barycentric;
+  if (!b.allFinite() || b.minCoeff() < 0 || !(std::abs(b.sum() - 1) <= 1e-9)) b = Vec3::Constant(1.0 / 3);
+  b /= b.sum();
+  const bool neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
+  Index t = triangle;
+  Vec3 d = displacement;  // motion still to make, m
+  double length = -1;     // its length along the surface, m (set on the first triangle)
+  for (int step = 0; step < kMaxSlideSteps; ++step) {
+    const mesh::Triangle& tri = mesh.triangles[t];
+    const Vec3& p0 = mesh.positions[tri[0]];
+    const Vec3 e1 = mesh.positions[tri[1]] - p0, e2 = mesh.positions[tri[2]] - p0;
+    Vec3 nf = e1.cross(e2);
+    const double area2 = nf.norm();
+    if (!(area2 > 0) || !std::isfinite(area2)) break;  // degenerate: stay
+    nf /= area2;
+    // The motion in this triangle's plane: on the first triangle the part
+    // tangent to the interpolated normal N at the point, carried into the
+    // plane along N (so the motion seen across N is kept: a probe moving
+    // along N does not move the point); then the remainder turned into each
+    // new plane, length kept.
+    Vec3 dt;
+    if (length < 0) {
+      const Vec3 nb = b[0] * mesh.normals[tri[0]] + b[1] * mesh.normals[tri[1]] + b[2] * mesh.normals[tri[2]];
+      const double nl = nb.norm();
+      const Vec3 nn = nl > 0 && std::isfinite(nl) ? Vec3(nb / nl) : nf;
+      const double cos_nf = nn.dot(nf);
+      const Vec3 across = d - d.dot(nn) * nn;
+      dt = cos_nf > 0.1 ? Vec3(across - (across.dot(nf) / cos_nf) * nn) : Vec3(across - across.dot(nf) * nf);
+    } else {
+      dt = d - d.dot(nf) * nf;
+    }
+    const double l = dt.norm();
+    if (length < 0) {
+      length = l;
+    } else if (l > 0) {
+      dt *= length / l;
+    } else {
+      break;  // the motion is along this triangle's normal: nothing to slide
+    }
+    if (!(length > 0)) break;
+    // The change of weights: dt = du e1 + dv e2 in the plane.
+    const double a11 = e1.dot(e1), a12 = e1.dot(e2), a22 = e2.dot(e2);
+    const double det = a11 * a22 - a12 * a12;
+    if (!(det > 0)) break;
+    const double r1 = dt.dot(e1), r2 = dt.dot(e2);
+    const double du = (a22 * r1 - a12 * r2) / det, dv = (a11 * r2 - a12 * r1) / det;
+    const Vec3 db(-du - dv, du, dv);
+    const Vec3 bt = b + db;
+    if (bt.minCoeff() >= 0) {
+      b = bt;
+      break;  // the motion ends in this triangle
+    }
+    // The first weight to reach zero along the way: the edge opposite it is crossed.
+    double s = 1;
+    int k = -1;
+    for (int j = 0; j < 3; ++j) {
+      if (db[j] < 0) {
+        const double sj = b[j] / -db[j];
+        if (sj < s) {
+          s = sj;
+          k = j;
+        }
+      }
+    }
+    if (k < 0) {
+      b = bt;
+      break;
+    }
+    b += s * db;
+    b[k] = 0;
+    b = b.cwiseMax(0.0);
+    b /= b.sum();
+    length *= 1 - s;
+    d = (1 - s) * dt;
+    const Index next = neighbors ? mesh.triangle_neighbors[t][k]
+                                 : across_edge(mesh, t, tri[(k + 1) % 3], tri[(k + 2) % 3]);
+    if (next >= mesh.triangle_count()) break;  // a border: stay on the edge
+    // The point is on the shared edge: its two corners keep their weights.
+    const mesh::Triangle& nt = mesh.triangles[next];
+    Vec3 nb = Vec3::Zero();
+    for (int m = 0; m < 3; ++m)
+      for (int j = 0; j < 3; ++j)
+        if (nt[m] == tri[j]) nb[m] = b[j];
+    if (!(nb.sum() > 0)) break;
+    b = nb / nb.sum();
+    t = next;
+  }
+  return finish(mesh, t, b, probe, true);
+}
+
+ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
+                            ContactCursor& cursor, bool in_contact) {
+  if (!probe.allFinite()) return ContactAnswer{};
+  if (!in_contact || cursor.triangle >= mesh.triangle_count()) return query_contact(mesh, tree, probe, cursor, false);
+  // The proxy before this query, and how far a walk's answer may be from it:
+  // within half the focal distance the foot of the interpolated normal moves
+  // at most twice as far as the probe, so an answer farther away is another
+  // foot (another sheet, a fold, another root beyond a focal point).
+  const Index proxy_triangle = cursor.triangle;
+  Vec3 proxy_weights = cursor.barycentric;
+  if (!proxy_weights.allFinite() || proxy_weights.minCoeff() < 0 || !(std::abs(proxy_weights.sum() - 1) <= 1e-9))
+    proxy_weights = Vec3::Constant(1.0 / 3);
+  const Vec3 last_probe = cursor.probe;
+  const mesh::Triangle& pt = mesh.triangles[proxy_triangle];
+  const Vec3 proxy_point = proxy_weights[0] * mesh.positions[pt[0]] + proxy_weights[1] * mesh.positions[pt[1]] +
+                           proxy_weights[2] * mesh.positions[pt[2]];
+  const double reach = 2 * (probe - last_probe).norm() + kProxyTolerance;
+  auto continuous = [&](const SurfacePoint& sp) {
+    return sp.triangle != kNoIndex && (sp.point - proxy_point).norm() <= reach;
+  };
+  ContactAnswer ans;
+  // The walk from the last triangle, as query_contact's.
+  Index nearest = kNoIndex;
+  SurfacePoint sp = walk_from(mesh, probe, proxy_triangle, &last_probe, cursor, nearest);
+  if (continuous(sp)) {
+    commit_walk(mesh, probe, sp, nearest, cursor, ans);
+    return ans;
+  }
+  // Declined: the proxy stays while the probe is within the cone of half
+  // angle atan(kProxyCone) below it; beyond, it slides along the surface
+  // towards the probe's side by the excess, but no more than kProxyChase
+  // times as far as the probe moved across the normal this tick (so it
+  // cannot run away where the probe is deeper than the centre of
+  // curvature), never leaving the surface.
+  const Vec3 pn = proxy_weights[0] * mesh.normals[pt[0]] + proxy_weights[1] * mesh.normals[pt[1]] +
+                  proxy_weights[2] * mesh.normals[pt[2]];
+  const double pn_len = pn.norm();
+  Vec3 move = Vec3::Zero();
+  if (pn_len > 0 && std::isfinite(pn_len)) {
+    const Vec3 n = pn / pn_len;
+    const Vec3 rel = probe - proxy_point;
+    const double depth = -rel.dot(n);
+    const Vec3 lateral = rel + depth * n;
+    const double lateral_len = lateral.norm();
+    const double excess = lateral_len - kProxyCone * std::max(depth, 0.0);
+    if (excess > 0 && lateral_len > 0) {
+      const Vec3 motion = probe - last_probe;
+      const double across = (motion - motion.dot(n) * n).norm();
+      move = (std::min(excess, kProxyChase * across) / lateral_len) * lateral;
+    }
+  }
+  const SurfacePoint slid = slide_surface_point(mesh, proxy_triangle, proxy_weights, move, probe);
+  if (slid.triangle == kNoIndex) return query_contact(mesh, tree, probe, cursor, false);  // unusable mesh data
+  // Near the slid point the walk may answer again (after a jump, or once the
+  // probe is back within half the focal distance).
+  if (slid.triangle != proxy_triangle) {
+    sp = walk_from(mesh, probe, slid.triangle, nullptr, cursor, nearest);
+    if (continuous(sp)) {
+      commit_walk(mesh, probe, sp, nearest, cursor, ans);
+      return ans;
+    }
+  }
+  // The probe came out above the proxy. Across a convex fold it may still be
+  // inside under another part of the surface: before letting go, the tree's
+  // answer (the nearest vertex's surface point) decides; when the probe is
+  // below that, the contact goes on there (its depth, like the proxy's, is
+  // near zero at this moment, so the force does not jump).
+  if (!(slid.offset < 0)) {
+    ContactCursor probe_cursor = cursor;
+    const ContactAnswer fresh = query_contact(mesh, tree, probe, probe_cursor, false);
+    if (fresh.surface.triangle != kNoIndex && fresh.surface.offset < 0) {
+      cursor = probe_cursor;
+      return fresh;
+    }
+    cursor.tree = probe_cursor.tree;
+  }
+  ans.surface = slid;
+  const mesh::Triangle& tri = mesh.triangles[slid.triangle];
+  const Vec3& b = slid.barycentric;
+  ans.nearest_vertex = b[0] >= b[1] && b[0] >= b[2] ? tri[0] : (b[1] >= b[2] ? tri[1] : tri[2]);
+  ans.path = ContactPath::Proxy;
+  cursor.triangle = slid.triangle;
+  cursor.barycentric = slid.barycentric;
+  cursor.probe = probe;
+  cursor.ahead = kNoIndex;
   return ans;
 }
 

@@ -77,6 +77,9 @@ struct ContactCursor {
   SearchCursor tree;          ///< leaf of the last tree answer (local search of section V.A)
   Index triangle = kNoIndex;  ///< triangle of the last answer
   Vec3 probe = Vec3::Zero();  ///< probe position of the last answer, m
+  /// Barycentric weights of the last answer on `triangle` (sum 1): with it
+  /// the last answer's point is the proxy that track_contact slides.
+  Vec3 barycentric = Vec3::Zero();
   TriangleFrame frame;        ///< the walk's last triangle, prepared
   /// The triangle across the edge of `triangle` nearest to the last answer
   /// (where a sliding probe goes next); its data is fetched ahead of time.
@@ -88,6 +91,10 @@ enum class ContactPath : unsigned char {
   None = 0,  ///< no answer (bad input or empty mesh)
   Walk = 1,  ///< in-contact walk from the last triangle
   Tree = 2,  ///< nearest vertex by the tree's local search + locate_surface_point
+  /// In contact, the walk declined (the probe is deeper than half the focal
+  /// distance, or it jumped): the proxy slid along the surface with the
+  /// probe's motion (track_contact).
+  Proxy = 3,
 };
 
 /// What query_contact found.
@@ -107,6 +114,71 @@ struct ContactAnswer {
 /// locate_surface_point the surface point around it. Updates the cursor. No
 /// allocation.
 ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
+                            ContactCursor& cursor, bool in_contact);
+
+/// Distance (m) a walk's answer in track_contact may lie from the proxy on
+/// top of twice the probe's motion (round-off of a probe at rest).
+inline constexpr double kProxyTolerance = 1e-9;
+
+/// Most triangles slide_surface_point crosses in one call.
+inline constexpr int kMaxSlideSteps = 64;
+
+/// Moves a point of the undeformed surface along the surface: the point with
+/// weights `barycentric` on `triangle` goes by the part of `displacement` (m)
+/// tangent to that triangle's plane, crossing edges into the neighbouring
+/// triangles (the motion left at an edge is turned into the next triangle's
+/// plane, its length kept) until the motion is used up, a border or
+/// non-manifold edge stops it (it stays on that edge) or kMaxSlideSteps
+/// triangles were crossed. It never leaves the surface, so it never passes
+/// through the volume to another sheet. Weights that are not finite, negative
+/// or do not sum to 1 are taken as the centroid. Returns the point (inside =
+/// true) with its interpolated normal and the offset of `probe` along it;
+/// triangle == kNoIndex for a bad triangle, a mesh without normals or
+/// adjacency, or a non-finite input. No allocation.
+SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, const Vec3& barycentric,
+                                 const Vec3& displacement, const Vec3& probe);
+
+/// Where the walk declines (deeper than half the focal distance), the proxy
+/// of track_contact holds while the probe's distance from the proxy's normal
+/// line is at most kProxyCone times its depth (a cone of half angle
+/// atan(0.25), about 14 degrees: a press roughly along the normal does not
+/// move the contact point).
+inline constexpr double kProxyCone = 0.25;
+/// Beyond that cone the proxy moves towards the probe's side at most
+/// kProxyChase times as far as the probe moved across the proxy's normal
+/// (it catches up with a sliding probe, yet stops when the probe stops).
+inline constexpr double kProxyChase = 2.0;
+
+/// The contact query with a god-object proxy, for the haptic tick. When not
+/// `in_contact` (or without a last triangle) it is query_contact. In contact
+/// the proxy (the last answer: cursor.triangle, cursor.barycentric) never
+/// leaves the surface and the tree is never asked, so the contact cannot jump
+/// through the volume to another sheet or fold:
+///  1. the in-contact walk from the last triangle as in query_contact (path
+///     Walk), taken only when its point is within 2 |probe motion| +
+///     kProxyTolerance of the proxy (within half the focal distance the foot
+///     of the interpolated normal moves at most twice as far as the probe; a
+///     farther answer is another foot: another sheet, a fold, another root);
+///  2. otherwise the proxy stays while the probe lies within the cone of
+///     half angle atan(kProxyCone) around the proxy's inward normal, and
+///     beyond it slides along the surface (slide_surface_point) towards the
+///     probe's side by the excess, but at most kProxyChase times as far as
+///     the probe moved across that normal since the last answer (so it
+///     cannot run away where the probe is deeper than the local centre of
+///     curvature);
+///  3. from a new triangle the walk is tried again without the jump test
+///     (Walk, same distance test); otherwise the proxy is the answer (path
+///     Proxy; nearest_vertex is its triangle's corner of largest weight);
+///  4. when the probe has come out above the proxy (offset >= 0), before the
+///     contact is let go the tree's answer (query_contact's) decides: across
+///     a convex fold the probe may still be below another part of the
+///     surface, and then the contact goes on there (path Tree; its depth is
+///     near zero then, as the proxy's is, so the force does not jump).
+/// The answer's offset is measured along the proxy's interpolated normal, so
+/// the caller's hysteretic height check holds the contact until the probe
+/// comes back above the surface at the proxy. Updates the cursor. No
+/// allocation.
+ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact);
 
 /// Result of the height check: the probe against the current deformed height

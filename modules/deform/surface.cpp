@@ -4,10 +4,14 @@
 
 #include "deform/surface.h"
 
+#include "mesh/thickness.h"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -29,10 +33,56 @@ bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y())
 
 bool at_rest(const VertexState& s) { return s.h == 0.0 && s.v == 0.0 && s.q == 0.0; }
 
+// The drawn height: h clamped to [-limit, limit] (limit >= 0, maybe +inf).
+inline float drawn(double h, double limit) {
+  return static_cast<float>(h < -limit ? -limit : (h > limit ? limit : h));
+}
+
 // A contact that can shape a field: finite, non-zero depth, a positive radius.
 bool usable(const Contact& c) {
   return std::isfinite(c.depth) && c.depth != 0.0 && finite(c.point) && c.shape.radius > 0 &&
          std::isfinite(c.shape.radius);
+}
+
+}  // namespace
+
+std::vector<double> drawn_displacement_limits(const mesh::SurfaceMesh& mesh, double thickness_fraction,
+                                              double curvature_fraction) {
+  std::vector<double> limit = mesh::inward_thickness(mesh);
+  const std::vector<double> radius = mesh::convex_radius(mesh);
+  for (std::size_t i = 0; i < limit.size(); ++i)
+    limit[i] = std::min(thickness_fraction * limit[i], curvature_fraction * radius[i]);
+  return limit;
+}
+
+namespace {
+
+// The limits of live surfaces, by mesh object and fractions, so that the
+// surfaces of one mesh (a loop's replicas) cast the rays once. Entries whose
+// mesh or limits are gone are dropped. Construction only: a lock is fine.
+std::shared_ptr<const std::vector<double>> shared_drawn_limits(
+    const std::shared_ptr<const mesh::SurfaceMesh>& mesh, double thickness_fraction, double curvature_fraction) {
+  struct Entry {
+    std::weak_ptr<const mesh::SurfaceMesh> mesh;
+    double thickness_fraction, curvature_fraction;
+    std::weak_ptr<const std::vector<double>> limits;
+  };
+  static std::mutex mutex;
+  static std::vector<Entry> entries;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    std::erase_if(entries, [](const Entry& e) { return e.mesh.expired() || e.limits.expired(); });
+    for (const Entry& e : entries) {
+      const bool same_mesh = !e.mesh.owner_before(mesh) && !mesh.owner_before(e.mesh);
+      if (same_mesh && e.thickness_fraction == thickness_fraction && e.curvature_fraction == curvature_fraction)
+        if (auto limits = e.limits.lock()) return limits;
+    }
+  }
+  auto limits = std::make_shared<const std::vector<double>>(
+      drawn_displacement_limits(*mesh, thickness_fraction, curvature_fraction));
+  std::lock_guard<std::mutex> lock(mutex);
+  entries.push_back({mesh, thickness_fraction, curvature_fraction, limits});
+  return limits;
 }
 
 }  // namespace
@@ -78,7 +128,31 @@ DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> me
     msg << "SurfaceOptions: min_normal_cosine must be in [-1, 1], got " << options_.min_normal_cosine;
     throw std::invalid_argument(msg.str());
   }
+  if (!(options_.thickness_fraction > 0 && options_.thickness_fraction < 0.5)) {
+    std::ostringstream msg;
+    msg << "SurfaceOptions: thickness_fraction must be in (0, 0.5), got " << options_.thickness_fraction;
+    throw std::invalid_argument(msg.str());
+  }
+  if (!(options_.curvature_fraction > 0 && options_.curvature_fraction < 1)) {
+    std::ostringstream msg;
+    msg << "SurfaceOptions: curvature_fraction must be in (0, 1), got " << options_.curvature_fraction;
+    throw std::invalid_argument(msg.str());
+  }
+  if (options_.drawn_limits && options_.drawn_limits->size() != n) {
+    throw std::invalid_argument("SurfaceOptions: drawn_limits has " + std::to_string(options_.drawn_limits->size()) +
+                                " values but the mesh has " + std::to_string(n) + " vertices");
+  }
   materials.validate(n);
+
+  // The drawn displacement limits: given, computed, or none (+inf).
+  if (!options_.limit_drawn_displacement) {
+    drawn_limits_ = std::make_shared<const std::vector<double>>(n, std::numeric_limits<double>::infinity());
+  } else if (options_.drawn_limits) {
+    drawn_limits_ = options_.drawn_limits;
+  } else {
+    drawn_limits_ = shared_drawn_limits(mesh_, options_.thickness_fraction, options_.curvature_fraction);
+  }
+  drawn_limit_ = drawn_limits_->data();
 
   // Per-vertex arrays, all at rest; the whole stream is due for a first upload.
   state_.vertices.assign(n, VertexState{});
@@ -194,20 +268,20 @@ void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
 // ---------------------------------------------------------------------------
 // Force fields (section III.B) and normal corrections (eq. 3).
 
-void DeformableSurface::add_field(Index i, const Contact& c, const Vec3& d, double r) {
+void DeformableSurface::add_field(Index i, const Contact& c, double depth, const Vec3& d, double r) {
   // d = P0_i - contact point (m), r = |d|. Force that holds vertex i at the
   // shape function's height -depth S(r) (the Linear law k h written inline).
   double shape = 0.0, slope = 0.0;
   c.shape.evaluate(r, shape, slope);
   const Material& m = integrators_[integrator_of_[i]].material;
-  const double h = -c.depth * shape;
+  const double h = -depth * shape;
   force_[i] += m.model == LocalModelKind::Linear ? m.stiffness * h : local_model(m.model).equilibrium_force(m, h);
 
   // eq. (3): depth S'(r) along the tangential direction away from the contact.
   const Vec3& n0 = mesh_->normals[i];
   const Vec3 t = d - d.dot(n0) * n0;
   const double len = t.norm();
-  if (len > 1e-12 * c.shape.radius) correction_[i] += (c.depth * slope / len) * t;
+  if (len > 1e-12 * c.shape.radius) correction_[i] += (depth * slope / len) * t;
 
   if (!(flags_[i] & kForced)) {
     flags_[i] |= kForced;
@@ -215,10 +289,12 @@ void DeformableSurface::add_field(Index i, const Contact& c, const Vec3& d, doub
   }
 }
 
-void DeformableSurface::field_by_bfs(const Contact& c) {
+void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3* n) {
   // Breadth-first visit from the contact vertex over mesh neighbours; vertices
-  // outside the support are marked visited but not expanded.
+  // outside the support, or facing away from the contact normal n (when
+  // given), are marked visited but not expanded.
   const auto& pos = mesh_->positions;
+  const auto& nrm = mesh_->normals;
   const double radius = c.shape.radius;
   bfs_queue_.clear();
   bfs_queue_.push_back(c.vertex);
@@ -228,7 +304,8 @@ void DeformableSurface::field_by_bfs(const Contact& c) {
     const Vec3 d = pos[i] - c.point;
     const double r = d.norm();
     if (!(r < radius)) continue;
-    add_field(i, c, d, r);
+    if (n && nrm[i].dot(*n) < options_.min_normal_cosine) continue;
+    add_field(i, c, depth, d, r);
     for (Index j : mesh_->vertex_neighbors.row(i)) {
       if (!(flags_[j] & kVisited)) {
         flags_[j] |= kVisited;
@@ -240,7 +317,7 @@ void DeformableSurface::field_by_bfs(const Contact& c) {
   for (Index i : bfs_queue_) flags_[i] &= static_cast<std::uint8_t>(~kVisited);
 }
 
-void DeformableSurface::field_by_scan(const Contact& c, const Vec3& n) {
+void DeformableSurface::field_by_scan(const Contact& c, double depth, const Vec3& n) {
   // Every vertex tests its distance to the contact and its normal against the
   // contact normal (the data-parallel way of section III.B).
   const auto& pos = mesh_->positions;
@@ -253,7 +330,7 @@ void DeformableSurface::field_by_scan(const Contact& c, const Vec3& n) {
     if (d.squaredNorm() > reject2) continue;
     const double r = d.norm();
     if (!(r < radius) || nrm[i].dot(n) < options_.min_normal_cosine) continue;
-    add_field(i, c, d, r);
+    add_field(i, c, depth, d, r);
   }
 }
 
@@ -271,20 +348,31 @@ void DeformableSurface::apply_fields() {
   const Index count = static_cast<Index>(mesh_->vertex_count());
   for (const Contact& c : contacts_) {
     if (!usable(c)) continue;
+    const double depth = field_depth(c);
+    const double len = c.normal.norm();
+    const bool has_normal = len > 0 && std::isfinite(len);
+    const Vec3 n = has_normal ? Vec3(c.normal / len) : Vec3::UnitZ();
     if (options_.propagation == Propagation::Topological && c.vertex < count) {
-      field_by_bfs(c);
+      field_by_bfs(c, depth, has_normal ? &n : nullptr);
       continue;
     }
     // DistanceNormal, or a contact without a valid seed vertex.
-    const double len = c.normal.norm();
-    if (!(len > 0) || !std::isfinite(len)) continue;
-    field_by_scan(c, c.normal / len);
+    if (!has_normal) continue;
+    field_by_scan(c, depth, n);
   }
 
   // Vertices that left every field: their stream correction is now zero.
   for (Index i : prev_forced_) {
     if (!(flags_[i] & kForced)) write_stream(i);
   }
+}
+
+double DeformableSurface::field_depth(const Contact& c) const {
+  // The depth the field is shaped with: cut to the drawn limit at the
+  // contact vertex (the deepest point of the dent), sign kept.
+  if (c.vertex >= mesh_->vertex_count()) return c.depth;
+  const double limit = drawn_limit_[c.vertex];
+  return std::abs(c.depth) <= limit ? c.depth : std::copysign(limit, c.depth);
 }
 
 // ---------------------------------------------------------------------------
@@ -309,6 +397,7 @@ struct DeformableSurface::Sweep {
   const Integrator* integrators;
   std::uint8_t* flags;
   float* stream;
+  const double* limit;
   Index* dirty;
   std::size_t dirty_size;
   bool all_dirty;
@@ -323,6 +412,7 @@ struct DeformableSurface::Sweep {
         integrators(s.integrators_.data()),
         flags(s.flags_.data()),
         stream(s.stream_.data()),
+        limit(s.drawn_limit_),
         dirty(s.dirty_.data()),
         dirty_size(s.dirty_size_),
         all_dirty(s.all_dirty_),
@@ -357,7 +447,7 @@ struct DeformableSurface::Sweep {
       // In a field: correction and height may both have changed.
       const Vec3& c = correction[i];
       const float nx = static_cast<float>(c.x()), ny = static_cast<float>(c.y()), nz = static_cast<float>(c.z());
-      const float h = static_cast<float>(s.h);
+      const float h = drawn(s.h, limit[i]);
       if (p[0] != nx || p[1] != ny || p[2] != nz || p[3] != h) {
         p[0] = nx;
         p[1] = ny;
@@ -372,7 +462,7 @@ struct DeformableSurface::Sweep {
         s = VertexState{};
         stays = false;
       }
-      const float h = static_cast<float>(s.h);
+      const float h = drawn(s.h, limit[i]);
       if (p[3] != h) {
         p[3] = h;
         mark(i, f);
@@ -487,7 +577,12 @@ double DeformableSurface::field_force(Index i) const { return force_[i]; }
 Vec3 DeformableSurface::normal_correction(Index i) const { return correction_[i]; }
 
 Vec3 DeformableSurface::deformed_position(Index i) const {
-  return mesh_->positions[i] + state_.vertices[i].h * mesh_->normals[i];
+  return mesh_->positions[i] + drawn_height(i) * mesh_->normals[i];
+}
+
+double DeformableSurface::drawn_height(Index i) const {
+  const double h = state_.vertices[i].h, limit = drawn_limit_[i];
+  return h < -limit ? -limit : (h > limit ? limit : h);
 }
 
 Vec3 DeformableSurface::deformed_normal(Index i) const {
@@ -567,7 +662,7 @@ void DeformableSurface::write_stream(Index i) {
   const float nx = static_cast<float>(c.x());
   const float ny = static_cast<float>(c.y());
   const float nz = static_cast<float>(c.z());
-  const float h = static_cast<float>(state_.vertices[i].h);
+  const float h = drawn(state_.vertices[i].h, drawn_limit_[i]);
   float* p = stream_.data() + 4 * static_cast<std::size_t>(i);
   if (p[0] != nx || p[1] != ny || p[2] != nz || p[3] != h) {
     p[0] = nx;

@@ -38,13 +38,44 @@ enum class Propagation : unsigned char {
 
 struct SurfaceOptions {
   Propagation propagation = Propagation::Topological;
-  /// DistanceNormal: vertices whose undeformed normal has n . n_contact below
-  /// this are not affected (keeps fields off the far side of thin parts).
+  /// Vertices whose undeformed normal has n . n_contact below this are not
+  /// affected (keeps fields off the far side of thin parts); with
+  /// Topological propagation the visit does not go on through them either.
   double min_normal_cosine = 0.0;
+  /// Limit the drawn displacement (the stream's h, deformed_position) of
+  /// each vertex to drawn_limit(i) (see drawn_displacement_limits), so the
+  /// drawn surface does not pass through its opposite side or fold past a
+  /// centre of curvature. Each contact's field is also shaped with its depth
+  /// cut to the limit at its vertex, so the drawn dent stays smooth and its
+  /// normal corrections match it. The contacts' depths, and so the haptic
+  /// force, are not limited.
+  bool limit_drawn_displacement = true;
+  /// Fraction of the inward thickness (mesh::inward_thickness) a vertex may
+  /// be drawn in or out: below 1/2, so two sides pressed towards each other
+  /// do not meet.
+  double thickness_fraction = 0.4;
+  /// Fraction of the convex radius of curvature (mesh::convex_radius) a
+  /// vertex may be drawn in or out: below 1, so neighbours do not cross.
+  /// The radius bounds two neighbours moved by the same h; on a dent's wall h
+  /// varies, which turns triangles over sooner: 0.4 still showed back faces
+  /// on a 42 mm organ's thin rim, 0.3 none (tests/render DeepPressImage).
+  double curvature_fraction = 0.3;
+  /// Limits (m per vertex) computed beforehand with
+  /// drawn_displacement_limits for this mesh and these fractions; null: taken
+  /// from another live surface of the same mesh object with the same
+  /// fractions, else computed at construction (a ray cast per vertex, about
+  /// a second per million vertices).
+  std::shared_ptr<const std::vector<double>> drawn_limits;
   /// A vertex outside every field leaves the active set once |h|, |v| dt and
   /// |q| are all at or below this (m); its state is then set exactly to rest.
   double rest_threshold = 1e-9;
 };
+
+/// Per vertex, the largest drawn displacement (m): min(thickness_fraction *
+/// mesh::inward_thickness, curvature_fraction * mesh::convex_radius);
+/// +infinity where neither bounds it (an open flat patch).
+std::vector<double> drawn_displacement_limits(const mesh::SurfaceMesh& mesh, double thickness_fraction = 0.4,
+                                              double curvature_fraction = 0.3);
 
 /// Per-tick state of the whole surface: plain data the recorder can snapshot.
 struct SurfaceState {
@@ -116,8 +147,15 @@ class DeformableSurface {
   double field_force(Index i) const;
   /// Normal correction of eq. (3) for vertex i (sum over contacts, not normalised).
   Vec3 normal_correction(Index i) const;
-  /// Deformed position P0 + h N0 (eq. 2), m.
+  /// Deformed position P0 + h N0 (eq. 2) as drawn: h = drawn_height(i), m.
   Vec3 deformed_position(Index i) const;
+  /// The height the stream draws for vertex i: state().vertices[i].h clamped
+  /// to [-drawn_limit(i), drawn_limit(i)], m.
+  double drawn_height(Index i) const;
+  /// Largest drawn displacement of vertex i, m (+infinity when unlimited).
+  double drawn_limit(Index i) const { return drawn_limit_[i]; }
+  /// All of them (m per vertex), shareable with SurfaceOptions::drawn_limits.
+  const std::shared_ptr<const std::vector<double>>& drawn_limits() const { return drawn_limits_; }
   /// Deformed unit normal normalize(N0 + sum Ni) (eq. 3).
   Vec3 deformed_normal(Index i) const;
 
@@ -164,9 +202,10 @@ class DeformableSurface {
 
   void prepare_step(double dt);
   void apply_fields();
-  void add_field(Index i, const Contact& c, const Vec3& d, double r);
-  void field_by_bfs(const Contact& c);
-  void field_by_scan(const Contact& c, const Vec3& n);
+  void add_field(Index i, const Contact& c, double depth, const Vec3& d, double r);
+  void field_by_bfs(const Contact& c, double depth, const Vec3* n);
+  void field_by_scan(const Contact& c, double depth, const Vec3& n);
+  double field_depth(const Contact& c) const;
   void write_stream(Index i);
   void mark_dirty(Index i);
   static MaterialKey key_of(const Material& m);
@@ -193,6 +232,8 @@ class DeformableSurface {
   std::vector<std::uint8_t> flags_;   // bit 0: active, bit 1: forced, bit 2: visited, bit 3: dirty
   std::vector<Index> bfs_queue_;
   std::vector<float> stream_;
+  std::shared_ptr<const std::vector<double>> drawn_limits_;  // per vertex, m (all +inf when unlimited)
+  const double* drawn_limit_ = nullptr;                      // drawn_limits_->data()
   std::vector<Index> dirty_;          // changed since take_dirty_ranges (flag bit 3): first dirty_size_ entries
   std::size_t dirty_size_ = 0;
   bool all_dirty_ = true;             // every vertex changed (new surface or set_state)

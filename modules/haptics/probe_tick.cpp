@@ -48,7 +48,8 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
   const Vec3 velocity = in.velocity.allFinite() ? in.velocity : Vec3::Zero();
 
   // Collision: contact query (walk or tree), virtual vertex, height check (section III.C).
-  const collision::ContactAnswer ca = collision::query_contact(mesh, tree, in.position, memory.cursor, was_in_contact);
+  // In contact the proxy stays on the surface (collision::track_contact).
+  const collision::ContactAnswer ca = collision::track_contact(mesh, tree, in.position, memory.cursor, was_in_contact);
   if (ca.nearest_vertex == kNoIndex) return;
   out.nearest_vertex = ca.nearest_vertex;
   out.path = ca.path;

@@ -1,8 +1,9 @@
 #pragma once
-// One haptic tick for several probes: collision (contact query: the
-// in-contact walk of section V.A or the tree's local search, contact
-// interpolation, hysteretic height check), the local model at the virtual
-// vertex and eq. (4). No allocation, no locks, no exceptions.
+// One haptic tick for several probes: collision (contact query: in contact
+// a god-object proxy that stays on the surface, collision::track_contact,
+// else the tree's local search; contact interpolation, hysteretic height
+// check), the local model at the virtual vertex and eq. (4). No allocation,
+// no locks, no exceptions.
 
 #include "collision/contact.h"
 #include "collision/vertex_tree.h"
@@ -35,7 +36,8 @@ struct ProbeOutput {
 
 /// Per-probe persistent data between ticks. Value-initialised = no history.
 struct ProbeMemory {
-  /// Last contact triangle, probe position and tree leaf (collision::query_contact).
+  /// Last contact triangle and weights (in contact: the proxy), probe
+  /// position and tree leaf (collision::track_contact).
   collision::ContactCursor cursor;
   /// The probe was in contact at the last tick: enables the in-contact walk
   /// and makes the height check hysteretic (the contact holds while the probe

@@ -334,6 +334,23 @@ TEST(HapticTick, DoesNotAllocate) {
   EXPECT_EQ(g_allocations.load() - before, 0);
   EXPECT_TRUE(out[0].in_contact);
   EXPECT_FALSE(out[1].in_contact);
+
+  // A deep press past the focal distance, sliding, then out: the proxy path
+  // (and the tree's answer when the probe comes out) allocate nothing.
+  ProbeMemory deep;
+  ProbeOutput deep_out;
+  int proxy_ticks = 0;
+  const long before_deep = g_allocations.load();
+  for (int i = 0; i <= 400; ++i) {
+    const double d = i < 300 ? 0.8 * kRadius * i / 300 : 0.8 * kRadius - 0.85 * kRadius * (i - 300) / 100;
+    const ProbeInput in{Vec3(1e-5 * i, 0, kRadius - d), Vec3::Zero()};
+    haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&deep, 1), std::span(&deep_out, 1),
+                ForceParams{}, deform::ShapeFunction{});
+    proxy_ticks += deep_out.path == collision::ContactPath::Proxy;
+  }
+  EXPECT_EQ(g_allocations.load() - before_deep, 0);
+  EXPECT_GT(proxy_ticks, 50);
+  EXPECT_FALSE(deep_out.in_contact);
 }
 
 TEST(HapticTick, NonFiniteProbeGivesNoForce) {

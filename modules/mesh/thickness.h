@@ -1,0 +1,30 @@
+#pragma once
+// Local thickness and curvature of a closed surface, per vertex: how far a
+// vertex can be drawn inwards along its normal before the surface passes
+// through itself (the opposite side of a thin part, or the neighbours'
+// normals crossing at the centre of curvature).
+
+#include "mesh/surface_mesh.h"
+
+#include <vector>
+
+namespace palpa::mesh {
+
+/// Per vertex: the distance (m) from the vertex along its inward normal
+/// (-normal) to the first triangle of the mesh the ray meets, triangles
+/// incident to the vertex excepted; +infinity when the ray meets none (an
+/// open mesh, or a vertex with a zero normal). Needs positions, triangles
+/// and normals (finalize()). Uses a bounding-volume hierarchy of the
+/// triangles, O(T log T) to build, and casts the rays on up to 8 threads.
+/// Deterministic (the same bits however the rays are shared out).
+std::vector<double> inward_thickness(const SurfaceMesh& mesh);
+
+/// Per vertex: the convex radius of curvature (m), the smallest
+/// |p_j - p_i| / |n_j - n_i| over the neighbours j whose normals converge
+/// inwards with vertex i's ((n_j - n_i) . (p_j - p_i) > 0): pushing i and j
+/// that far inwards along their normals brings them together (on a sphere
+/// of radius R with radial normals it is R). +infinity where no neighbour
+/// converges (flat or concave). Needs normals and vertex_neighbors.
+std::vector<double> convex_radius(const SurfaceMesh& mesh);
+
+}  // namespace palpa::mesh

@@ -1,0 +1,180 @@
+// The god-object proxy of track_contact and the surface slide under it,
+// against closed forms: on a plane the slide is the tangential motion, it
+// stops at a border, and on a sphere with radial normals it stays on the
+// surface; a press past the focal distance keeps its contact point (depth =
+// press distance), a press through a small sphere never moves the contact to
+// its other side (where query_contact alone lets go), and the
+// walk takes over again once the probe is back within its range.
+
+#include "collision/contact.h"
+#include "common/test_support.h"
+#include "mesh/generate.h"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <random>
+
+namespace palpa::collision {
+namespace {
+
+Vec3 point_of(const mesh::SurfaceMesh& m, const SurfacePoint& sp) {
+  const auto& t = m.triangles[sp.triangle];
+  return sp.barycentric[0] * m.positions[t[0]] + sp.barycentric[1] * m.positions[t[1]] +
+         sp.barycentric[2] * m.positions[t[2]];
+}
+
+// The triangle of the plane containing the point p (z = 0), and its weights.
+SurfacePoint on_plane(const mesh::SurfaceMesh& m, const Vec3& p) {
+  for (Index t = 0; t < m.triangle_count(); ++t) {
+    Vec3 b;
+    const auto& tri = m.triangles[t];
+    const Vec3 a = m.positions[tri[0]], e1 = m.positions[tri[1]] - a, e2 = m.positions[tri[2]] - a;
+    const double det = e1.x() * e2.y() - e1.y() * e2.x();
+    const Vec3 d = p - a;
+    const double u = (d.x() * e2.y() - d.y() * e2.x()) / det, v = (e1.x() * d.y() - e1.y() * d.x()) / det;
+    if (u >= 0 && v >= 0 && u + v <= 1) {
+      SurfacePoint sp;
+      sp.triangle = t;
+      sp.barycentric = Vec3(1 - u - v, u, v);
+      return sp;
+    }
+  }
+  return {};
+}
+
+TEST(Slide, OnAPlaneIsTheTangentialMotionAndStopsAtTheBorder) {
+  const auto m = mesh::make_plane(21, 21, 0.001);  // 20 mm square, 1 mm cells, z = 0
+  const SurfacePoint start = on_plane(m, Vec3(0.0013, -0.0021, 0));
+  ASSERT_NE(start.triangle, kNoIndex);
+  // 4 mm across, 3 mm along the normal (ignored): crosses several edges.
+  const Vec3 probe(0.0053, -0.0021, -0.003);
+  SurfacePoint sp = slide_surface_point(m, start.triangle, start.barycentric, Vec3(0.004, 0, -0.003), probe);
+  ASSERT_NE(sp.triangle, kNoIndex);
+  EXPECT_TRUE(sp.inside);
+  EXPECT_LE((sp.point - Vec3(0.0053, -0.0021, 0)).norm(), 1e-15);
+  EXPECT_LE((point_of(m, sp) - sp.point).norm(), 1e-18);
+  EXPECT_NEAR(sp.offset, -0.003, 1e-15);
+  EXPECT_NEAR(sp.barycentric.sum(), 1.0, 1e-15);
+  // Diagonal motion past the border x = 10 mm stops on the border edge.
+  sp = slide_surface_point(m, start.triangle, start.barycentric, Vec3(0.02, 0.004, 0), probe);
+  ASSERT_NE(sp.triangle, kNoIndex);
+  EXPECT_NEAR(sp.point.x(), 0.01, 1e-15);
+  EXPECT_LE(sp.point.y(), 0.01);
+  // Bad input.
+  EXPECT_EQ(slide_surface_point(m, kNoIndex, start.barycentric, Vec3::Zero(), probe).triangle, kNoIndex);
+  EXPECT_EQ(slide_surface_point(m, start.triangle, start.barycentric, Vec3(NAN, 0, 0), probe).triangle, kNoIndex);
+  // Weights that are not weights are taken as the centroid.
+  sp = slide_surface_point(m, start.triangle, Vec3(2, -1, 0), Vec3::Zero(), probe);
+  EXPECT_LE((sp.barycentric - Vec3::Constant(1.0 / 3)).norm(), 1e-15);
+}
+
+TEST(Slide, OnASphereStaysOnTheSurfaceAndIgnoresNormalMotion) {
+  const double r = 0.05;
+  auto m = mesh::make_sphere(20000, r);
+  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  std::mt19937 rng(3);
+  std::normal_distribution<double> g;
+  for (int k = 0; k < 200; ++k) {
+    const Index t = static_cast<Index>(rng() % m.triangle_count());
+    const Vec3 b(0.2, 0.3, 0.5);
+    const auto& tri = m.triangles[t];
+    const Vec3 p = b[0] * m.positions[tri[0]] + b[1] * m.positions[tri[1]] + b[2] * m.positions[tri[2]];
+    const Vec3 n = (b[0] * m.normals[tri[0]] + b[1] * m.normals[tri[1]] + b[2] * m.normals[tri[2]]).normalized();
+    // Along the interpolated normal only: the point does not move.
+    SurfacePoint sp = slide_surface_point(m, t, b, -0.03 * n, p - 0.03 * n);
+    EXPECT_EQ(sp.triangle, t);
+    EXPECT_LE((sp.point - p).norm(), 1e-15);
+    EXPECT_NEAR(sp.offset, -0.03, 1e-15);
+    // Any motion: the point stays on a triangle of the sphere (within its sagitta) and moved
+    // about as far as the motion's tangential part (the facets bend it).
+    const Vec3 d = 0.01 * Vec3(g(rng), g(rng), g(rng));
+    sp = slide_surface_point(m, t, b, d, p);
+    ASSERT_NE(sp.triangle, kNoIndex);
+    EXPECT_LE((point_of(m, sp) - sp.point).norm(), 1e-15);
+    EXPECT_LE(sp.point.norm(), r * (1 + 1e-12));
+    EXPECT_GE(sp.point.norm(), r * 0.999);
+    const double tangential = (d - d.dot(n) * n).norm();
+    EXPECT_NEAR((sp.point - p).norm(), tangential, 0.05 * tangential + 1e-4);
+  }
+}
+
+TEST(Proxy, PressPastTheFocalDistanceKeepsTheContactPoint) {
+  // Radial normals: the walk answers down to R/2; deeper the proxy holds,
+  // the depth is the press distance all the way to 1.8 R (past the centre),
+  // and on the way back the walk answers again at the same point.
+  const double r = 0.05;
+  auto m = mesh::make_sphere(20000, r);
+  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  const VertexTree tree(m.positions);
+  const Vec3 dir = Vec3(0.3, -0.5, 0.8).normalized();
+  ContactCursor cursor;
+  bool in = false;
+  SurfacePoint first;
+  int walk = 0, proxy = 0, walk_back = 0;
+  for (int k = 0; k <= 400; ++k) {
+    // 0.1 mm above, down to 1.8 R, back to 0.1 R.
+    const double d = k <= 300 ? -1e-4 + 1.8 * r * k / 300 : 1.8 * r - 1.7 * r * (k - 300) / 100;
+    const Vec3 probe = (first.triangle == kNoIndex ? r * dir : first.point) - d * (first.triangle == kNoIndex ? dir : first.normal);
+    const ContactAnswer a = track_contact(m, tree, probe, cursor, in);
+    ASSERT_NE(a.surface.triangle, kNoIndex) << k;
+    in = a.surface.offset < 0;
+    if (k == 0) {
+      first = a.surface;
+      EXPECT_FALSE(in);
+      continue;
+    }
+    ASSERT_TRUE(in) << k;
+    EXPECT_LE((a.surface.point - first.point).norm(), 1e-12) << k;
+    EXPECT_NEAR(-a.surface.offset, d, 1e-12) << k;
+    if (k <= 300) {
+      walk += a.path == ContactPath::Walk;
+      proxy += a.path == ContactPath::Proxy;
+      if (k == 1)
+        EXPECT_EQ(a.path, ContactPath::Tree);
+      else if (d < 0.499 * r)
+        EXPECT_EQ(a.path, ContactPath::Walk) << k << " at " << d / r << " R";
+      else if (d > 0.501 * r)
+        EXPECT_EQ(a.path, ContactPath::Proxy) << k << " at " << d / r << " R";
+    } else {
+      walk_back += a.path == ContactPath::Walk;
+    }
+  }
+  EXPECT_GT(walk, 50);
+  EXPECT_GT(proxy, 150);
+  EXPECT_GT(walk_back, 10);
+}
+
+TEST(Proxy, NeverCrossesToTheOtherSide) {
+  // A 5 mm sphere (area-weighted normals) pressed 30 mm down from its top,
+  // through it and out below: the contact stays on the top (normal up, depth
+  // the press distance) although the tree's nearest vertex is soon on the
+  // bottom; query_contact alone loses it there.
+  const double r = 0.005;
+  const auto m = mesh::make_sphere(5000, r);
+  const VertexTree tree(m.positions);
+  Index top = 0;
+  for (Index i = 0; i < m.vertex_count(); ++i)
+    if (m.positions[i].z() > m.positions[top].z()) top = i;
+  ContactCursor proxy_cursor, plain_cursor;
+  bool proxy_in = false, plain_in = false;
+  int plain_lost = 0;
+  for (int k = 0; k <= 300; ++k) {
+    const double d = -1e-4 + 0.03 * k / 300;
+    const Vec3 probe = m.positions[top] - d * m.normals[top];
+    const ContactAnswer a = track_contact(m, tree, probe, proxy_cursor, proxy_in);
+    const ContactAnswer b = query_contact(m, tree, probe, plain_cursor, plain_in);
+    proxy_in = a.surface.triangle != kNoIndex && a.surface.offset < 0;
+    const bool was_plain = plain_in;
+    plain_in = b.surface.triangle != kNoIndex && b.surface.offset < 0;
+    plain_lost += was_plain && !plain_in;
+    if (d < 1e-5) continue;
+    ASSERT_TRUE(proxy_in) << k;
+    EXPECT_GT(a.surface.normal.dot(m.normals[top]), 0.99) << k;
+    EXPECT_NEAR(-a.surface.offset, d, 1e-12) << k;
+  }
+  EXPECT_GT(plain_lost, 0);  // the check can fail: without the proxy the contact goes
+}
+
+}  // namespace
+}  // namespace palpa::collision
