@@ -578,9 +578,13 @@ void HapticLoop::haptic_main() {
   std::array<ProbeTickResult, kMaxProbes> results{};
   ContactSet contacts;
   const std::uint32_t base_warnings = static_warnings_ | (realtime_.load() ? 0u : kWarnNoRealtime);
+  // The first tick's slot is fixed before start() returns: a caller that
+  // moves a manual clock right after start() then gets exactly its ticks
+  // (read after the release, `next` could already include the caller's
+  // first advance and that tick would never come).
+  std::int64_t next = clock.now_ns() + period;
   haptic_ready_.store(true, std::memory_order_release);
 
-  std::int64_t next = clock.now_ns() + period;
   std::int64_t prev_start = -1;
   while (!stop_.load(std::memory_order_relaxed)) {
     clock.sleep_until(next, spin);
