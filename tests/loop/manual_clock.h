@@ -36,6 +36,8 @@ class ManualClock final : public haptics::LoopClock {
   /// call, until reset()).
   void sleep_until(std::int64_t ns, std::int64_t) override {
     std::unique_lock<std::mutex> lock(mutex_);
+    // The loop's thread is done with its tick: wake await()ers.
+    changed_.notify_all();
     changed_.wait(lock, [&] { return now_ >= ns || interrupted_; });
   }
   void interrupt() override {
@@ -55,6 +57,21 @@ class ManualClock final : public haptics::LoopClock {
     changed_.notify_all();
   }
 
+  /// Waits (real time, at most `timeout`) until `done()`, re-checking it
+  /// each time a thread goes to sleep on this clock (a loop that finished
+  /// its tick) and every 100 us (other threads' progress). Sleeping rather
+  /// than spinning leaves the CPU to the loop's threads on a loaded machine.
+  template <class Pred>
+  bool await(Pred done, std::chrono::steady_clock::duration timeout) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!done()) {
+      if (std::chrono::steady_clock::now() > end) return done();
+      changed_.wait_for(lock, std::chrono::microseconds(100));
+    }
+    return true;
+  }
+
  private:
   std::mutex mutex_;
   std::condition_variable changed_;
@@ -69,14 +86,13 @@ inline constexpr std::chrono::seconds kLoopWaitTimeout{10};
 /// Waits (real time, at most `timeout`) until `done()`; true when it held.
 template <class Pred>
 bool wait_until(Pred done, std::chrono::steady_clock::duration timeout = kLoopWaitTimeout) {
+  // Short naps, no spinning: on a loaded machine a spinning waiter takes
+  // the CPU time the loop's threads need.
   const auto end = std::chrono::steady_clock::now() + timeout;
-  for (int spins = 0;; ++spins) {
+  for (;;) {
     if (done()) return true;
     if (std::chrono::steady_clock::now() > end) return done();
-    if (spins < 200)
-      std::this_thread::yield();
-    else
-      std::this_thread::sleep_for(std::chrono::microseconds(20));
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
   }
 }
 
@@ -101,7 +117,7 @@ inline bool run_ticks(haptics::HapticLoop& loop, ManualClock& clock, std::uint64
     const std::uint64_t tick = loop.ticks();
     if (before) before(tick);
     clock.advance(period);
-    if (!wait_until([&] { return loop.ticks() > tick && loop.deform_idle(); })) {
+    if (!clock.await([&] { return loop.ticks() > tick && loop.deform_idle(); }, kLoopWaitTimeout)) {
       ADD_FAILURE() << "the loop did not make tick " << tick << " (and its deformation step) within "
                     << kLoopWaitTimeout.count() << " s of real time";
       return false;

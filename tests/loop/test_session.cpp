@@ -649,15 +649,18 @@ TEST(SurfaceMailbox, ReadsExactlyTheBlocksWritten) {
 }
 
 TEST(SurfaceMailbox, ReaderEndsWithExactlyTheWritersStream) {
+  // Many short sessions: only a block's last write decides the end state,
+  // so each session ends with writes racing the reader's reads.
   constexpr std::size_t n = 3000;
-  for (int trial = 0; trial < 5; ++trial) {
+  std::size_t failed_trials = 0;
+  for (int trial = 0; trial < 150; ++trial) {
     core::SurfaceMailbox box(n);
     std::vector<float> writer(4 * n, 0.0f), reader(4 * n, -1.0f);
     std::atomic<bool> done{false};
     std::thread w([&] {
       std::mt19937 rng(100 + trial);
       std::vector<IndexRange> ranges;
-      for (int round = 1; round <= 20000; ++round) {
+      for (int round = 1; round <= 300; ++round) {
         ranges.clear();
         const int count = 1 + static_cast<int>(rng() % 3);
         for (int k = 0; k < count; ++k) {
@@ -687,11 +690,14 @@ TEST(SurfaceMailbox, ReaderEndsWithExactlyTheWritersStream) {
     read();  // one more read after the writer stopped
     std::size_t differ = 0;
     for (std::size_t i = 0; i < writer.size(); ++i) differ += writer[i] != reader[i];
-    EXPECT_EQ(differ, 0u) << "trial " << trial << " after " << reads << " reads";
+    failed_trials += differ != 0;
+    if (differ != 0 && failed_trials == 1)
+      ADD_FAILURE() << differ << " values differ after trial " << trial << " (" << reads << " reads)";
     // And nothing is left to read.
     EXPECT_TRUE(box.begin_read().empty());
     box.end_read();
   }
+  EXPECT_EQ(failed_trials, 0u);
 }
 
 }  // namespace
