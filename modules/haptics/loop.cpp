@@ -301,8 +301,10 @@ void HapticLoop::apply_now(const Queued& q, double t) {
     devices_[c.probe] = nullptr;
   }
   core_->apply(c, t);
-  if (command_records_ && !command_records_->push({tick_, t, c})) record_drops_.fetch_add(1, std::memory_order_relaxed);
-  // Model edits reach both replicas at once (no step).
+  if (command_records_ && !command_records_->push({tick_, t, c, true}))
+    record_drops_.fetch_add(1, std::memory_order_relaxed);
+  // Model edits reach both replicas at once (no step); the record says so,
+  // so that a replay applies them at once too (Session::apply_edits_now).
   if (core_->state().pending.any()) {
     DeformRequest r;
     r.edits = core_->state().pending;

@@ -9,6 +9,7 @@
 
 #include "haptics/session.h"
 #include "haptics/loop.h"
+#include "haptics/loop_replay.h"
 #include "mesh/generate.h"
 #include "bits.h"
 #include "fake_device.h"
@@ -535,6 +536,58 @@ TEST(Session, LiveEditsKeepTheDentAndTheOtherProbes) {
   EXPECT_NEAR(force_norm(v.probes[2]), kK1 * dC, 1e-12);
   EXPECT_NEAR(rig.st[0].fz.load(), kK1 * dA, 1e-6);
   loop.stop();
+}
+
+TEST(Session, EditsWhileStoppedReplayExactly) {
+  // A material edit and a reset made while the loop is stopped are
+  // recorded; the replay of the session gives the live forces and surface.
+  auto mesh = plane();
+  CoreConfig cc = core_config();
+  cc.deform_rate_hz = 250;
+  const auto model = SessionModel::make(mesh, {}, cc);
+  const auto materials = deform::MaterialArrays::uniform(mesh->vertex_count(), material(kK0));
+  test::ManualClock clock;
+  test::FakeDeviceState st;
+  st.clock = [&clock] { return clock.now_s(); };
+  st.x = 0.001;
+  st.z = -0.002;
+  auto dev = test::make_fake_device(st);
+  LoopConfig c;
+  c.clock = &clock;
+  c.record_capacity = 1 << 14;
+  ProbeBinding b;
+  b.device = &dev;
+  b.safety = limits();
+  HapticLoop loop(model, materials, c, {b});
+  LoopRecording rec;
+  loop.start();
+  loop.enable(0);
+  ASSERT_TRUE(test::run_ticks(loop, clock, 101));
+  loop.stop();
+  loop.set_material(material(kK1));  // stopped: applied at once
+  clock.reset();
+  loop.start();
+  ASSERT_TRUE(test::run_ticks(loop, clock, 100));
+  loop.stop();
+  loop.reset_surface();
+  clock.reset();
+  loop.start();
+  ASSERT_TRUE(test::run_ticks(loop, clock, 100));
+  loop.stop();
+  rec.drain(loop);
+  ASSERT_EQ(rec.ticks.size(), 301u);
+  // Live: the new material is felt from the first tick after the restart.
+  EXPECT_NEAR(std::abs(rec.ticks[150].force_device[0][2]), kK1 * 0.002, 1e-3);
+
+  LoopReplay replay(mesh, materials, {}, loop.config().core, loop.setups());
+  std::size_t differ = 0;
+  std::uint64_t first = 0;
+  replay.run(rec, [&](const TickRecord& tr, std::span<const ProbeTickResult> r) {
+    const bool d = !test::same_bits(tr.force_device[0], r[0].force_device) || tr.flags[0] != r[0].flags;
+    if (d && differ++ == 0) first = tr.tick;
+  });
+  EXPECT_EQ(differ, 0u) << "first at tick " << first;
+  EXPECT_EQ(test::vertex_differences(loop.surface().state().vertices, replay.surface().state().vertices), 0u);
 }
 
 // ---- bounded surface publishing ------------------------------------------------
