@@ -312,8 +312,10 @@ void HapticLoop::apply_now(const Queued& q, double t) {
     devices_[c.probe] = nullptr;
   }
   core_->apply(c, t);
-  if (command_records_ && !command_records_->push({tick_, t, c})) record_drops_.fetch_add(1, std::memory_order_relaxed);
-  // Model edits reach both replicas at once (no step).
+  if (command_records_ && !command_records_->push({tick_, t, c, true}))
+    record_drops_.fetch_add(1, std::memory_order_relaxed);
+  // Model edits reach both replicas at once (no step); the record says so,
+  // so that a replay applies them at once too (Session::apply_edits_now).
   if (core_->state().pending.any()) {
     DeformRequest r;
     r.edits = core_->state().pending;
@@ -641,9 +643,13 @@ void HapticLoop::haptic_main() {
   std::array<ProbeTickResult, kMaxProbes> results{};
   ContactSet contacts;
   const std::uint32_t base_warnings = static_warnings_ | (realtime_.load() ? 0u : kWarnNoRealtime);
+  // The first tick's slot is fixed before start() returns: a caller that
+  // moves a manual clock right after start() then gets exactly its ticks
+  // (read after the release, `next` could already include the caller's
+  // first advance and that tick would never come).
+  std::int64_t next = clock.now_ns() + period;
   haptic_ready_.store(true, std::memory_order_release);
 
-  std::int64_t next = clock.now_ns() + period;
   std::int64_t prev_start = -1;
   while (!stop_.load(std::memory_order_relaxed)) {
     clock.sleep_until(next, spin);

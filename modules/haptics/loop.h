@@ -135,6 +135,9 @@ struct CommandRecord {
   std::uint64_t tick = 0;
   double time = 0;
   LoopCommand command;
+  /// Applied while the loop was stopped: its model edits (material, reset)
+  /// reached the surface at once, not at the next deformation step.
+  bool immediate = false;
 };
 
 /// One deformation step: generation g was made from the request of tick

@@ -90,7 +90,9 @@ void LoopReplay::run(const LoopRecording& rec,
     // Commands applied at the start of this tick, then the tick itself.
     while (next_command < rec.commands.size() && rec.commands[next_command].tick <= tick) {
       const CommandRecord& c = rec.commands[next_command++];
-      if (c.tick == tick) session_->apply(c.command, c.time);
+      if (c.tick != tick) continue;
+      session_->apply(c.command, c.time);
+      if (c.immediate) session_->apply_edits_now();
     }
     const std::size_t n = session_->core().probe_count();
     if (tr.probe_count != n)

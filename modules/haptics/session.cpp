@@ -63,6 +63,18 @@ void Session::set_materials(deform::MaterialArrays materials, double t) {
   core_->apply(c, t);
 }
 
+void Session::apply_edits_now() {
+  const DeformEdits e = core_->state().pending;
+  if (!e.any()) return;
+  CoreState s = core_->state();
+  s.pending = DeformEdits{};
+  core_->set_state(s);
+  if (e.reset) surface_->reset();
+  if (e.material == 1) surface_->set_uniform_material(e.uniform);
+  if (e.material == 2 && e.map != nullptr) surface_->set_materials(*e.map);
+  note_materials(e);
+}
+
 bool Session::tick(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
                    double model_time) {
   // The model at rest counts as made at the first tick.
@@ -73,19 +85,23 @@ bool Session::tick(double t, std::span<const ProbeTickInput> inputs, std::span<P
   return due;
 }
 
-void Session::deform(const DeformRequest& r) {
-  apply_deform_request(*surface_, r, scratch_);
-  // The material in force, for snapshots.
-  if (r.edits.material == 1) {
+// The material in force, for snapshots.
+void Session::note_materials(const DeformEdits& e) {
+  if (e.material == 1) {
     materials_ = MaterialSource{};
-    materials_.material = r.edits.uniform;
-  } else if (r.edits.material == 2 && r.edits.map != nullptr) {
+    materials_.material = e.uniform;
+  } else if (e.material == 2 && e.map != nullptr) {
     materials_ = MaterialSource{};
     materials_.uniform = false;
-    materials_.map_ptr = r.edits.map;
+    materials_.map_ptr = e.map;
     for (const auto& k : kept_maps_)
-      if (k.get() == r.edits.map) materials_.map = k;
+      if (k.get() == e.map) materials_.map = k;
   }
+}
+
+void Session::deform(const DeformRequest& r) {
+  apply_deform_request(*surface_, r, scratch_);
+  note_materials(r.edits);
   generation_ = r.generation;
   model_time_ = r.time;
 }

@@ -79,6 +79,10 @@ class Session {
   /// Queues per-vertex materials (kept alive by the session) for the next
   /// deformation step. Throws std::invalid_argument as MaterialArrays::validate.
   void set_materials(deform::MaterialArrays materials, double t);
+  /// Applies the edits waiting for the next deformation step (reset,
+  /// materials) to the surface now, with no step, as a stopped HapticLoop
+  /// does with commands it is given (CommandRecord::immediate).
+  void apply_edits_now();
 
   /// One step at time t (s): the haptic tick of every probe, then the
   /// deformation step when one is due. `inputs` and `results` hold
@@ -110,6 +114,8 @@ class Session {
   void restore(const SessionState& s);
 
  private:
+  void note_materials(const DeformEdits& e);
+
   std::shared_ptr<const SessionModel> model_;
   std::unique_ptr<deform::DeformableSurface> surface_;
   std::unique_ptr<LoopCore> core_;

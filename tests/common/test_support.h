@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -41,8 +43,12 @@ inline std::string shared_data_missing_message() {
   } while (0)
 
 /// A fresh empty folder under the system temp dir, for files a test writes.
+/// The process id is part of its name: builds in several checkouts on one
+/// machine run the same tests at once, and a shared folder let one run
+/// delete another's files (PalpaHeadless failed "cannot read PNG" so).
 inline std::filesystem::path temp_dir(const std::string& name) {
-  auto d = std::filesystem::temp_directory_path() / ("palpa_test_" + name);
+  auto d = std::filesystem::temp_directory_path() /
+           ("palpa_test_" + name + "_" + std::to_string(static_cast<long>(::getpid())));
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
   return d;

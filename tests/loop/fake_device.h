@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <ctime>
+#include <functional>
 #include <mutex>
 #include <string>
 
@@ -24,6 +25,10 @@ struct FakeDeviceState {
   std::atomic<double> expires_after{0};
   std::atomic<bool> non_finite_seen{false};
   PalpaDeviceSpec spec{};
+  /// Sample times (s): CLOCK_MONOTONIC by default; when set (before the loop
+  /// reads the device), this clock instead, e.g. a ManualClock, so that the
+  /// velocity estimate, and with it every force, depends only on the ticks.
+  std::function<double()> clock;
 };
 
 namespace fake_device_detail {
@@ -59,7 +64,7 @@ inline int read_fn(PalpaDevice* d, PalpaDeviceSample* s) {
   s->status = st->status.load();
   s->buttons = st->buttons.load();
   s->sequence = st->reads.fetch_add(1) + 1;
-  s->time = now();
+  s->time = st->clock ? st->clock() : now();
   return PALPA_DEVICE_OK;
 }
 inline int write_fn(PalpaDevice* d, const PalpaForceCommand* c) {

@@ -1,96 +1,188 @@
 // Exact replay: a live threaded session (moving probe, commands, clutch,
 // deformation on its own thread) replayed from its records gives bit-equal
-// forces, flags and final surface.
+// forces, flags and final surface; a replay snapshot at any tick restores
+// into another replay that continues with the same bits (seeking). The live
+// session runs on a ManualClock: its commands and probe positions are set
+// by tick, so the session is the same however loaded the machine is.
 
 #include "haptics/loop_replay.h"
 #include "mesh/generate.h"
+#include "bits.h"
 #include "fake_device.h"
+#include "manual_clock.h"
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstring>
-#include <thread>
 
 namespace palpa::haptics {
 namespace {
 
-using namespace std::chrono_literals;
+constexpr std::uint64_t kTicks = 1200;
 
-TEST(LoopReplay, ReproducesALiveSessionBitForBit) {
-  auto mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(61, 61, 1e-3));
+/// A live session recorded from a HapticLoop driven tick by tick, and what
+/// the loop's model looked like at its end.
+struct LiveSession {
+  std::shared_ptr<mesh::SurfaceMesh> mesh;
+  deform::MaterialArrays materials;
+  CoreConfig core;
+  std::vector<ProbeSetup> setups;
+  LoopRecording rec;
+  std::vector<deform::VertexState> final_vertices;
+  std::uint64_t record_drops = 0;
+};
+
+// The probe presses in and slides; the position is a function of the tick.
+void place_probe(test::FakeDeviceState& st, std::uint64_t tick) {
+  const double t = static_cast<double>(tick) * 1e-3;
+  st.x = 0.01 * std::sin(3.0 * t);
+  st.y = 0.005 * std::cos(2.0 * t);
+  st.z = -0.001 - 0.002 * std::pow(std::sin(5.0 * t), 2);  // always pressing
+}
+
+LiveSession record_live_session() {
+  LiveSession s;
+  s.mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(61, 61, 1e-3));
   deform::Material m;
   m.stiffness = 400;
   m.damping = 0.5;
-  const auto materials = deform::MaterialArrays::uniform(mesh->vertex_count(), m);
+  s.materials = deform::MaterialArrays::uniform(s.mesh->vertex_count(), m);
+
+  test::ManualClock clock;
   LoopConfig c;
   c.core.rate_hz = 1000;
   c.core.deform_rate_hz = 300;
   c.core.shape.radius = 0.008;
   c.record_capacity = 1 << 16;
+  c.clock = &clock;
 
   test::FakeDeviceState st;
-  st.z = 0.002;
+  st.clock = [&clock] { return clock.now_s(); };
+  place_probe(st, 0);
   auto dev = test::make_fake_device(st);
   ProbeBinding b;
   b.device = &dev;
   b.safety.ramp_time = 0.05;
   b.safety.max_force_rate = 500;
-  HapticLoop loop(mesh, materials, {}, c, {b});
+  HapticLoop loop(s.mesh, s.materials, {}, c, {b});
 
-  // Live: the probe presses in and slides while the test issues commands.
-  LoopRecording rec;
   loop.start();
-  loop.enable(0);
-  const auto t0 = std::chrono::steady_clock::now();
-  int step = 0;
-  while (std::chrono::steady_clock::now() - t0 < 1200ms) {
-    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    st.x = 0.01 * std::sin(3.0 * t);
-    st.y = 0.005 * std::cos(2.0 * t);
-    st.z = -0.001 - 0.002 * std::pow(std::sin(5.0 * t), 2);  // always pressing
-    if (step == 300) loop.set_clutch(0, true);
-    if (step == 400) loop.set_clutch(0, false);
-    if (step == 700) loop.disable(0);
-    if (step == 750) loop.enable(0);
-    ++step;
-    rec.drain(loop);
-    std::this_thread::sleep_for(1ms);
-  }
+  const bool ran = test::run_ticks(loop, clock, kTicks, [&](std::uint64_t tick) {
+    place_probe(st, tick);
+    if (tick == 0) loop.enable(0);
+    if (tick == 300) loop.set_clutch(0, true);
+    if (tick == 400) loop.set_clutch(0, false);
+    if (tick == 700) loop.disable(0);
+    if (tick == 750) loop.enable(0);
+    if (tick % 256 == 0) s.rec.drain(loop);
+  });
   loop.stop();
-  rec.drain(loop);
-  ASSERT_GT(rec.ticks.size(), 900u);
-  ASSERT_GT(rec.deforms.size(), 200u);
+  EXPECT_TRUE(ran);
+  s.rec.drain(loop);
+  s.core = loop.config().core;
+  s.setups = loop.setups();
+  s.final_vertices = loop.surface().state().vertices;
+  s.record_drops = loop.statistics().record_drops;
+  return s;
+}
+
+TEST(LoopReplay, ReproducesALiveSessionBitForBit) {
+  const LiveSession live = record_live_session();
+  const LoopRecording& rec = live.rec;
+  ASSERT_EQ(rec.ticks.size(), kTicks);
   ASSERT_EQ(rec.commands.size(), 5u);
-  ASSERT_EQ(loop.statistics().record_drops, 0u);
+  EXPECT_EQ(live.record_drops, 0u);
+  // Each command took effect at the tick it was issued before.
+  const std::uint64_t at[] = {0, 300, 400, 700, 750};
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(rec.commands[i].tick, at[i]);
+  // 300 Hz against 1 kHz: 0.3 steps per tick, none dropped, and every tick
+  // used the model made from the steps all earlier ticks asked for.
+  ASSERT_GE(rec.deforms.size(), kTicks * 3 / 10 - 1);
+  ASSERT_LE(rec.deforms.size(), kTicks * 3 / 10);
+  std::size_t made_before = 0;
+  for (const TickRecord& tr : rec.ticks) {
+    while (made_before < rec.deforms.size() && rec.deforms[made_before].contacts_tick < tr.tick) ++made_before;
+    ASSERT_EQ(tr.model_generation, made_before) << "tick " << tr.tick;
+  }
+  for (std::size_t g = 0; g < rec.deforms.size(); ++g) ASSERT_EQ(rec.deforms[g].generation, g + 1);
 
   // Replay and compare every tick.
-  LoopReplay replay(mesh, materials, {}, loop.config().core, loop.setups());
-  std::size_t compared = 0, force_diff = 0, flag_diff = 0, nonzero = 0;
-  replay.run(rec, [&](const TickRecord& live, std::span<const ProbeTickResult> again) {
+  LoopReplay replay(live.mesh, live.materials, {}, live.core, live.setups);
+  std::size_t compared = 0, force_diff = 0, flag_diff = 0, nonzero = 0, clutched = 0;
+  replay.run(rec, [&](const TickRecord& tr, std::span<const ProbeTickResult> again) {
     ++compared;
-    force_diff += std::memcmp(live.force_device[0].data(), again[0].force_device.data(), sizeof(Triple)) != 0;
-    flag_diff += live.flags[0] != again[0].flags;
+    force_diff += !test::same_bits(tr.force_device[0], again[0].force_device);
+    flag_diff += tr.flags[0] != again[0].flags;
     nonzero += again[0].force_device[2] != 0.0;
+    clutched += again[0].clutched;
   });
   EXPECT_EQ(compared, rec.ticks.size());
   EXPECT_EQ(force_diff, 0u);
   EXPECT_EQ(flag_diff, 0u);
-  EXPECT_GT(nonzero, 200u);  // the session did push
+  EXPECT_GT(nonzero, 600u);          // the session did push
+  EXPECT_EQ(clutched, 400u - 300u);  // the clutch held from tick 300 to tick 399
 
   // The model: the same generation and bitwise the same vertex states.
-  const auto& live = loop.surface().state().vertices;
-  const auto& again = replay.surface().state().vertices;
-  ASSERT_EQ(live.size(), again.size());
   EXPECT_EQ(replay.generation(), rec.deforms.back().generation);
-  std::size_t state_diff = 0, moved = 0;
-  for (std::size_t i = 0; i < live.size(); ++i) {
-    state_diff += std::memcmp(&live[i], &again[i], sizeof(live[i])) != 0;
-    moved += live[i].h != 0.0;
+  EXPECT_EQ(test::vertex_differences(live.final_vertices, replay.surface().state().vertices), 0u);
+  EXPECT_GT(test::dented(live.final_vertices), 0u);
+}
+
+TEST(LoopReplay, SeeksFromASnapshotAtAnyTick) {
+  const LiveSession live = record_live_session();
+  const LoopRecording& rec = live.rec;
+  ASSERT_EQ(rec.ticks.size(), kTicks);
+
+  // The whole replay, every tick's results kept.
+  std::vector<ProbeTickResult> full;
+  LoopReplay whole(live.mesh, live.materials, {}, live.core, live.setups);
+  whole.run(rec, [&](const TickRecord&, std::span<const ProbeTickResult> r) { full.push_back(r[0]); });
+  ASSERT_EQ(full.size(), kTicks);
+  const auto whole_end = whole.surface().state().vertices;
+
+  // Seek points: inside the clutch, while disabled, on and off a
+  // deformation boundary, the first and the last tick.
+  for (const std::uint64_t k : {std::uint64_t{0}, std::uint64_t{1}, std::uint64_t{333}, std::uint64_t{350},
+                                std::uint64_t{720}, std::uint64_t{1000}, kTicks - 1}) {
+    SCOPED_TRACE("seek to tick " + std::to_string(k));
+    LoopReplay first(live.mesh, live.materials, {}, live.core, live.setups);
+    first.run(rec, nullptr, k);
+    ASSERT_EQ(first.tick(), k);
+    const ReplayState snap = first.snapshot();
+
+    // (a) A new replay restored from the snapshot.
+    LoopReplay seek(live.mesh, live.materials, {}, live.core, live.setups);
+    seek.restore(snap);
+    ASSERT_EQ(seek.tick(), k);
+    std::uint64_t tick = k;
+    std::size_t differ = 0;
+    std::string first_field;
+    seek.run(rec, [&](const TickRecord& tr, std::span<const ProbeTickResult> r) {
+      ASSERT_EQ(tr.tick, tick);
+      const std::string d = test::result_difference(full[tick], r[0]);
+      if (!d.empty() && first_field.empty()) first_field = d + " at tick " + std::to_string(tick);
+      differ += !d.empty();
+      ++tick;
+    });
+    EXPECT_EQ(tick, kTicks);
+    EXPECT_EQ(differ, 0u) << first_field;
+    EXPECT_EQ(test::vertex_differences(whole_end, seek.surface().state().vertices), 0u);
+
+    // (b) The replay that ran to the end, sent back to tick k.
+    whole.restore(snap);
+    tick = k;
+    differ = 0;
+    whole.run(rec, [&](const TickRecord&, std::span<const ProbeTickResult> r) {
+      differ += !test::result_difference(full[tick], r[0]).empty();
+      ++tick;
+    });
+    EXPECT_EQ(tick, kTicks);
+    EXPECT_EQ(differ, 0u);
+    EXPECT_EQ(test::vertex_differences(whole_end, whole.surface().state().vertices), 0u);
   }
-  EXPECT_EQ(state_diff, 0u);
-  EXPECT_GT(moved, 0u);
+  // And the replay equals the live loop.
+  EXPECT_EQ(test::vertex_differences(live.final_vertices, whole_end), 0u);
 }
 
 TEST(LoopReplay, RefusesIncompleteRecordings) {
