@@ -229,6 +229,16 @@ MaterialArrays DeformableSurface::materials() const {
 
 bool DeformableSurface::uniform() const { return integrators_.size() == 1; }
 
+double DeformableSurface::max_stiffness() const {
+  double k = 0;
+  for (const Integrator& g : integrators_) {
+    double kg = g.material.stiffness;
+    if (g.material.model == LocalModelKind::Viscoelastic) kg += g.material.k2;
+    k = std::max(k, kg);
+  }
+  return k;
+}
+
 void DeformableSurface::set_material(Index i, const Material& m) {
   if (i >= integrator_of_.size()) {
     throw std::invalid_argument("set_material: vertex " + std::to_string(i) + " is out of range (the mesh has " +

@@ -99,6 +99,10 @@ class DeformableSurface {
   MaterialArrays materials() const;
   /// True when every vertex has the same material.
   bool uniform() const;
+  /// The largest small-strain stiffness any vertex can show, N/m (the
+  /// Maxwell arm's k2 added for Viscoelastic), from the table of distinct
+  /// materials (cheap).
+  double max_stiffness() const;
   /// The material of vertex i: the same values as materials().at(i), read
   /// from one small table of distinct materials (one index per vertex), so
   /// the haptic tick touches one array instead of seven. i < vertex count.

@@ -403,7 +403,7 @@ CommandTicket HapticLoop::add_probe(const ProbeBinding& binding, std::size_t& sl
   c.probe = static_cast<std::uint32_t>(free);
   c.prepared = LoopCore::prepare(s, config_.core);  // throws, nothing changed
   const auto spec = s.spec;
-  const double k = max_stiffness(replicas_[0]->materials());
+  const double k = replicas_[0]->max_stiffness();
   if (spec.force_dof > 0 && spec.max_stiffness > 0 && k * b.mapping.scale * b.mapping.force_scale > spec.max_stiffness)
     static_warnings_ |= kWarnStiffness;
   bindings_[free] = b;
