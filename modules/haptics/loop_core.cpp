@@ -324,8 +324,7 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     }
   }
 
-  // The deformation schedule: deform_rate_hz / rate_hz steps per tick. With
-  // no deformation, pending edits still reach the surface (dt = 0).
+  // The deformation schedule: deform_rate_hz / rate_hz steps per tick.
   bool due = false;
   double dt = 0;
   if (config_.deform_rate_hz > 0) {
@@ -335,9 +334,10 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
       due = true;
       dt = 1.0 / config_.deform_rate_hz;
     }
-  } else {
-    due = state_.pending.any();
   }
+  // Edits do not wait for the next step: they go at once, with no
+  // integration (dt = 0), so the next tick already feels them.
+  if (!due && state_.pending.any()) due = true;
   if (due) {
     request_.generation = ++state_.generations;
     request_.tick = tick;

@@ -153,7 +153,8 @@ struct DeformEdits {
 
 /// One deformation step, asked for by the tick whose contacts it uses. The
 /// haptic ticks make them on a fixed schedule (CoreConfig::deform_rate_hz
-/// against rate_hz), so the sequence of steps depends only on the ticks.
+/// against rate_hz), plus one with dt = 0 at a tick that applied a model edit
+/// between two steps, so the sequence of steps depends only on the ticks.
 struct DeformRequest {
   std::uint64_t generation = 0;  ///< the surface generation this step makes (1, 2, ...)
   std::uint64_t tick = 0;        ///< the tick whose contacts it uses

@@ -453,8 +453,10 @@ TEST(Session, LiveEditsKeepTheDentAndTheOtherProbes) {
   ASSERT_NEAR(hA, -dA, 1e-5);  // the dents settled under the probes
   ASSERT_NEAR(hB, -dB, 1e-5);
 
-  // set_material before tick T: the next deformation step (the first due
-  // tick D >= T) makes it; ticks up to D feel k0, ticks from D + 1 on k1.
+  // set_material before tick T: applied at the start of T, it does not wait
+  // for the next scheduled step (the first due tick D >= T) but goes to the
+  // surface at once as an edits-only generation: tick T feels k0, ticks
+  // from T + 1 on k1.
   std::uint64_t T = loop.ticks();
   if (T % 4 == 3) {  // keep T off a step tick so that "before" has a tick
     ASSERT_TRUE(test::run_ticks(loop, rig.clock, 1));
@@ -467,16 +469,17 @@ TEST(Session, LiveEditsKeepTheDentAndTheOtherProbes) {
     ASSERT_TRUE(test::run_ticks(loop, rig.clock, 1));
     v = loop.view();
     ASSERT_EQ(v.tick, tick);
-    const double k = tick <= D ? kK0 : kK1;
-    EXPECT_NEAR(force_norm(v.probes[0]), k * dA, 1e-12) << "tick " << tick << ", step at " << D;
+    const double k = tick <= T ? kK0 : kK1;
+    EXPECT_NEAR(force_norm(v.probes[0]), k * dA, 1e-12) << "tick " << tick << ", edit at " << T;
     EXPECT_NEAR(force_norm(v.probes[1]), k * dB, 1e-12) << "tick " << tick;
     EXPECT_FALSE(v.probes[0].flags & (kSafetyRamping | kSafetyDisabled));
     EXPECT_FALSE(v.probes[1].flags & (kSafetyRamping | kSafetyDisabled));
   }
   EXPECT_TRUE(loop.applied(material_ticket));
-  // Steps are made at the ticks t with t % 4 == 3; a tick uses those of the ticks before it.
+  // Steps are made at the ticks t with t % 4 == 3, plus the edit's own
+  // generation at T; a tick uses those of the ticks before it.
   EXPECT_EQ(generation, (T - 1) / 4);
-  EXPECT_EQ(loop.view().model_generation, (D + 2) / 4);
+  EXPECT_EQ(loop.view().model_generation, (D + 2) / 4 + 1);
   // The dents stayed (a rebuilt or reset surface would start again from 0).
   EXPECT_NEAR(h(vA), hA, 1e-6);
   EXPECT_NEAR(h(vB), hB, 1e-6);
