@@ -68,16 +68,14 @@ std::string number(double v) {
   return s.str();
 }
 
-// Largest small-strain stiffness of the material map (N/m); the Maxwell arm
-// adds k2 at high frequency.
-double max_stiffness(const deform::MaterialArrays& m) {
-  double k = 0;
-  for (std::size_t i = 0; i < m.size(); ++i) {
-    double ki = m.stiffness[i];
-    if (m.model[i] == deform::LocalModelKind::Viscoelastic) ki += m.k2[i];
-    k = std::max(k, ki);
-  }
-  return k;
+// The core's view of a binding: its device's specification, mapping and limits.
+ProbeSetup setup_of(const ProbeBinding& b) {
+  ProbeSetup s;
+  s.name = b.name;
+  s.spec = b.device->spec();
+  s.mapping = b.mapping;
+  s.safety = b.safety;
+  return s;
 }
 
 }  // namespace
@@ -169,27 +167,11 @@ void HapticLoop::init(deform::MaterialArrays materials, std::vector<ProbeBinding
     if (b.device == nullptr || !*b.device)
       throw std::invalid_argument("loop configuration: probe " + std::to_string(i) + " has no device");
     if (b.name.empty()) b.name = b.device->label();
-    ProbeSetup s;
-    s.name = b.name;
-    s.spec = b.device->spec();
-    s.mapping = b.mapping;
-    s.safety = b.safety;
-    setups.push_back(s);
+    setups.push_back(setup_of(b));
   }
 
   // The model: two identical replicas of the surface; the core on the tree.
-  const double k = max_stiffness(materials);
-  {
-    bool same = true;
-    const deform::Material first = materials.at(0);
-    for (std::size_t i = 1; same && i < materials.size(); ++i) same = materials.at(static_cast<Index>(i)) == first;
-    material_source_.uniform = same;
-    material_source_.material = first;
-    if (!same) {
-      material_source_.map = std::make_shared<const deform::MaterialArrays>(materials);
-      material_source_.map_ptr = material_source_.map.get();
-    }
-  }
+  material_source_ = material_source_of(materials);
   replicas_[0] = std::make_unique<deform::DeformableSurface>(mesh_, materials, options_);
   replicas_[1] = std::make_unique<deform::DeformableSurface>(mesh_, std::move(materials), options_);
   if (setups.empty()) {
@@ -198,10 +180,7 @@ void HapticLoop::init(deform::MaterialArrays materials, std::vector<ProbeBinding
     ProbeSetup placeholder;
     placeholder.name = "none";
     core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::vector<ProbeSetup>{placeholder});
-    LoopCommand c;
-    c.kind = LoopCommandKind::RemoveProbe;
-    c.probe = 0;
-    core_->apply(c, 0);
+    core_->apply(LoopCommand::of(LoopCommandKind::RemoveProbe, 0), 0);
   } else {
     core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::move(setups));
   }
@@ -209,14 +188,7 @@ void HapticLoop::init(deform::MaterialArrays materials, std::vector<ProbeBinding
     bindings_[i] = probes[i];
     used_[i] = true;
     devices_[i] = probes[i].device;
-  }
-
-  // Stiffness check: world stiffness k appears as k * scale * force_scale at the device.
-  for (std::size_t i = 0; i < probes.size(); ++i) {
-    const auto spec = probes[i].device->spec();
-    if (spec.force_dof > 0 && spec.max_stiffness > 0 &&
-        k * probes[i].mapping.scale * probes[i].mapping.force_scale > spec.max_stiffness)
-      static_warnings_ |= kWarnStiffness;
+    check_stiffness(probes[i]);
   }
 
   // Lock-free exchange buffers, all allocated now.
@@ -303,30 +275,38 @@ void HapticLoop::check_slot(std::size_t probe) const {
                                 std::to_string(probe_count()) + " probe slots)");
 }
 
-// Applies a command on the calling thread (the loop is stopped).
-void HapticLoop::apply_now(const Queued& q, double t) {
+// Stiffness check: world stiffness k appears as k * scale * force_scale at the device.
+void HapticLoop::check_stiffness(const ProbeBinding& b) {
+  const auto spec = b.device->spec();
+  const double k = replicas_[0]->max_stiffness();
+  if (spec.force_dof > 0 && spec.max_stiffness > 0 && k * b.mapping.scale * b.mapping.force_scale > spec.max_stiffness)
+    static_warnings_ |= kWarnStiffness;
+}
+
+// The device side of probe add/remove (the thread that applies the command):
+// a removed probe's device gets zero force and is not read again.
+void HapticLoop::bind_slot(const Queued& q) noexcept {
   const LoopCommand& c = q.command;
-  if (c.kind == LoopCommandKind::AddProbe && c.probe < kMaxProbes) devices_[c.probe] = q.device;
-  if (c.kind == LoopCommandKind::RemoveProbe && c.probe < kMaxProbes) {
+  if (c.probe >= kMaxProbes) return;
+  if (c.kind == LoopCommandKind::AddProbe) devices_[c.probe] = q.device;
+  if (c.kind == LoopCommandKind::RemoveProbe) {
     if (devices_[c.probe] && devices_[c.probe]->spec().force_dof > 0) devices_[c.probe]->write(PalpaForceCommand{});
     devices_[c.probe] = nullptr;
   }
+}
+
+// Applies a command on the calling thread (the loop is stopped).
+void HapticLoop::apply_now(const Queued& q, double t) {
+  const LoopCommand& c = q.command;
+  bind_slot(q);
   core_->apply(c, t);
   if (command_records_ && !command_records_->push({tick_, t, c, true}))
     record_drops_.fetch_add(1, std::memory_order_relaxed);
   // Model edits reach both replicas at once (no step); the record says so,
   // so that a replay applies them at once too (Session::apply_edits_now).
   if (core_->state().pending.any()) {
-    DeformRequest r;
-    r.edits = core_->state().pending;
-    CoreState s = core_->state();
-    s.pending = DeformEdits{};
-    core_->set_state(s);
-    for (auto& rep : replicas_) {
-      if (r.edits.reset) rep->reset();
-      if (r.edits.material == 1) rep->set_uniform_material(r.edits.uniform);
-      if (r.edits.material == 2 && r.edits.map) rep->set_materials(*r.edits.map);
-    }
+    const DeformEdits edits = core_->take_pending_edits();
+    for (auto& rep : replicas_) apply_deform_edits(*rep, edits);
     const auto ranges = replicas_[current_.load()]->take_dirty_ranges();
     mailbox_->publish(replicas_[current_.load()]->stream(), ranges);
     replicas_[1 - current_.load()]->take_dirty_ranges();
@@ -351,31 +331,21 @@ CommandTicket HapticLoop::push(const LoopCommand& c, devices::Device* device) {
 
 CommandTicket HapticLoop::enable(std::size_t probe) {
   check_slot(probe);
-  LoopCommand c;
-  c.kind = LoopCommandKind::Enable;
-  c.probe = static_cast<std::uint32_t>(probe);
-  return push(c);
+  return push(LoopCommand::of(LoopCommandKind::Enable, static_cast<std::uint32_t>(probe)));
 }
 CommandTicket HapticLoop::disable(std::size_t probe) {
   check_slot(probe);
-  LoopCommand c;
-  c.kind = LoopCommandKind::Disable;
-  c.probe = static_cast<std::uint32_t>(probe);
-  return push(c);
+  return push(LoopCommand::of(LoopCommandKind::Disable, static_cast<std::uint32_t>(probe)));
 }
 CommandTicket HapticLoop::set_clutch(std::size_t probe, bool engaged) {
   check_slot(probe);
-  LoopCommand c;
-  c.kind = engaged ? LoopCommandKind::ClutchOn : LoopCommandKind::ClutchOff;
-  c.probe = static_cast<std::uint32_t>(probe);
-  return push(c);
+  return push(LoopCommand::of(engaged ? LoopCommandKind::ClutchOn : LoopCommandKind::ClutchOff,
+                              static_cast<std::uint32_t>(probe)));
 }
 CommandTicket HapticLoop::set_mapping(std::size_t probe, const DeviceMapping& m) {
   m.validate(probe < kMaxProbes && used_[probe] ? bindings_[probe].name : "probe " + std::to_string(probe));
   check_slot(probe);
-  LoopCommand c;
-  c.kind = LoopCommandKind::SetMapping;
-  c.probe = static_cast<std::uint32_t>(probe);
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetMapping, static_cast<std::uint32_t>(probe));
   c.mapping = m;
   bindings_[probe].mapping = m;
   return push(c);
@@ -393,19 +363,9 @@ CommandTicket HapticLoop::add_probe(const ProbeBinding& binding, std::size_t& sl
                                 std::to_string(kMaxProbes) + " probes");
   if (running_.load() && !b.device->started())
     throw std::invalid_argument("loop: device " + b.name + " is not started");
-  ProbeSetup s;
-  s.name = b.name;
-  s.spec = b.device->spec();
-  s.mapping = b.mapping;
-  s.safety = b.safety;
-  LoopCommand c;
-  c.kind = LoopCommandKind::AddProbe;
-  c.probe = static_cast<std::uint32_t>(free);
-  c.prepared = LoopCore::prepare(s, config_.core);  // throws, nothing changed
-  const auto spec = s.spec;
-  const double k = replicas_[0]->max_stiffness();
-  if (spec.force_dof > 0 && spec.max_stiffness > 0 && k * b.mapping.scale * b.mapping.force_scale > spec.max_stiffness)
-    static_warnings_ |= kWarnStiffness;
+  LoopCommand c = LoopCommand::of(LoopCommandKind::AddProbe, static_cast<std::uint32_t>(free));
+  c.prepared = LoopCore::prepare(setup_of(b), config_.core);  // throws, nothing changed
+  check_stiffness(b);
   bindings_[free] = b;
   used_[free] = true;
   slot = free;
@@ -414,9 +374,7 @@ CommandTicket HapticLoop::add_probe(const ProbeBinding& binding, std::size_t& sl
 
 CommandTicket HapticLoop::remove_probe(std::size_t probe) {
   check_slot(probe);
-  LoopCommand c;
-  c.kind = LoopCommandKind::RemoveProbe;
-  c.probe = static_cast<std::uint32_t>(probe);
+  LoopCommand c = LoopCommand::of(LoopCommandKind::RemoveProbe, static_cast<std::uint32_t>(probe));
   used_[probe] = false;
   bindings_[probe] = ProbeBinding{};
   return push(c);
@@ -426,8 +384,7 @@ CommandTicket HapticLoop::set_shape(const deform::ShapeFunction& shape) {
   CoreConfig probe_config = config_.core;
   probe_config.shape = shape;
   probe_config.validate();
-  LoopCommand c;
-  c.kind = LoopCommandKind::SetShape;
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetShape);
   c.shape = shape;
   return push(c);
 }
@@ -436,8 +393,7 @@ CommandTicket HapticLoop::set_force(const ForceParams& force) {
   CoreConfig probe_config = config_.core;
   probe_config.force = force;
   probe_config.validate();
-  LoopCommand c;
-  c.kind = LoopCommandKind::SetForce;
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetForce);
   c.force = force;
   return push(c);
 }
@@ -446,8 +402,7 @@ CommandTicket HapticLoop::set_material(const deform::Material& m) {
   deform::validate_material(m, "material");
   material_source_ = MaterialSource{};
   material_source_.material = m;
-  LoopCommand c;
-  c.kind = LoopCommandKind::SetMaterial;
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetMaterial);
   c.material = m;
   return push(c);
 }
@@ -455,8 +410,7 @@ CommandTicket HapticLoop::set_material(const deform::Material& m) {
 CommandTicket HapticLoop::set_materials(deform::MaterialArrays materials) {
   materials.validate(mesh_->vertex_count());
   auto kept = std::make_shared<const deform::MaterialArrays>(std::move(materials));
-  LoopCommand c;
-  c.kind = LoopCommandKind::SetMaterialMap;
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetMaterialMap);
   c.materials = kept.get();
   {
     std::lock_guard<std::mutex> lock(command_mutex_);
@@ -470,9 +424,7 @@ CommandTicket HapticLoop::set_materials(deform::MaterialArrays materials) {
 }
 
 CommandTicket HapticLoop::reset_surface() {
-  LoopCommand c;
-  c.kind = LoopCommandKind::ResetSurface;
-  return push(c);
+  return push(LoopCommand::of(LoopCommandKind::ResetSurface));
 }
 
 SessionState HapticLoop::snapshot() const {
@@ -496,10 +448,7 @@ void HapticLoop::restore(const SessionState& st) {
       throw std::invalid_argument("loop: the snapshot's probe slot " + std::to_string(i) + " is " +
                                   (st.core.probes[i].active ? "used" : "free") + " but the loop's is not");
   for (auto& r : replicas_) {
-    if (st.materials.uniform)
-      r->set_uniform_material(st.materials.material);
-    else if (st.materials.map_ptr)
-      r->set_materials(*st.materials.map_ptr);
+    apply_material_source(*r, st.materials);
     r->restore(st.surface, st.contacts);
     r->take_dirty_ranges();
   }
@@ -669,12 +618,7 @@ void HapticLoop::haptic_main() {
     Queued q;
     for (int k = 0; k < 16 && commands_->pop(q); ++k) {
       const LoopCommand& cmd = q.command;
-      if (cmd.kind == LoopCommandKind::AddProbe && cmd.probe < kMaxProbes) devices_[cmd.probe] = q.device;
-      if (cmd.kind == LoopCommandKind::RemoveProbe && cmd.probe < kMaxProbes) {
-        if (devices_[cmd.probe] && devices_[cmd.probe]->spec().force_dof > 0)
-          devices_[cmd.probe]->write(PalpaForceCommand{});
-        devices_[cmd.probe] = nullptr;
-      }
+      bind_slot(q);
       core_->apply(cmd, t);
       if (command_records_ && !command_records_->push({tick, t, cmd}))
         record_drops_.fetch_add(1, std::memory_order_relaxed);

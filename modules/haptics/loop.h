@@ -259,6 +259,8 @@ class HapticLoop {
   void deform_main();
   CommandTicket push(const LoopCommand& c, devices::Device* device = nullptr);
   void apply_now(const Queued& q, double t);
+  void bind_slot(const Queued& q) noexcept;
+  void check_stiffness(const ProbeBinding& b);
   void check_slot(std::size_t probe) const;
   void process(const DeformRequest& r, bool stopping);
 

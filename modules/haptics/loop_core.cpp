@@ -67,11 +67,15 @@ void merge_requests(DeformRequest& into, const DeformRequest& later) {
   into.contacts = later.contacts;
 }
 
+void apply_deform_edits(deform::DeformableSurface& surface, const DeformEdits& e) {
+  if (e.reset) surface.reset();
+  if (e.material == 1) surface.set_uniform_material(e.uniform);
+  if (e.material == 2 && e.map != nullptr) surface.set_materials(*e.map);
+}
+
 void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& r,
                           std::vector<deform::Contact>& scratch) {
-  if (r.edits.reset) surface.reset();
-  if (r.edits.material == 1) surface.set_uniform_material(r.edits.uniform);
-  if (r.edits.material == 2 && r.edits.map != nullptr) surface.set_materials(*r.edits.map);
+  apply_deform_edits(surface, r.edits);
   to_contacts(r.contacts, scratch);
   surface.set_contacts(scratch);
   if (r.dt > 0) surface.step(r.dt);

@@ -92,6 +92,14 @@ struct LoopCommand {
   ForceParams force;            ///< SetForce only
   deform::Material material;    ///< SetMaterial only
   const deform::MaterialArrays* materials = nullptr;  ///< SetMaterialMap only; must outlive the session
+
+  /// A command of `kind` for slot `probe`, every payload at its default.
+  static LoopCommand of(LoopCommandKind kind, std::uint32_t probe = 0) {
+    LoopCommand c;
+    c.kind = kind;
+    c.probe = probe;
+    return c;
+  }
 };
 
 /// What one tick read from one device.
@@ -170,6 +178,10 @@ struct DeformRequest {
 /// integrate exactly over any step, so the surface keeps time).
 void merge_requests(DeformRequest& into, const DeformRequest& later);
 
+/// Applies model edits to a surface: reset first, then the material.
+/// Throws only what the surface's edits throw for bad materials.
+void apply_deform_edits(deform::DeformableSurface& surface, const DeformEdits& edits);
+
 /// Applies a request to a surface: edits, contacts, step. `scratch` keeps
 /// its capacity between calls. Throws only what the surface's edits throw
 /// for bad materials (they were validated before they were queued).
@@ -242,6 +254,14 @@ class LoopCore {
             ContactSet& contacts) noexcept;
   /// The deformation step the last tick asked for (valid when it returned true).
   const DeformRequest& request() const { return request_; }
+
+  /// Hands over the edits waiting for the next request and clears them
+  /// (for a caller that applies them at once, e.g. while a loop is stopped).
+  DeformEdits take_pending_edits() noexcept {
+    const DeformEdits e = state_.pending;
+    state_.pending = DeformEdits{};
+    return e;
+  }
 
   /// The mutable state (a snapshot), and its exact restore.
   const CoreState& state() const { return state_; }

@@ -18,9 +18,7 @@ std::shared_ptr<const SessionModel> SessionModel::make(std::shared_ptr<const mes
   return m;
 }
 
-namespace {
-
-MaterialSource source_of(const deform::MaterialArrays& m) {
+MaterialSource material_source_of(const deform::MaterialArrays& m) {
   MaterialSource s;
   bool same = m.size() > 0;
   const deform::Material first = same ? m.at(0) : deform::Material{};
@@ -35,13 +33,18 @@ MaterialSource source_of(const deform::MaterialArrays& m) {
   return s;
 }
 
-}  // namespace
+void apply_material_source(deform::DeformableSurface& surface, const MaterialSource& source) {
+  if (source.uniform)
+    surface.set_uniform_material(source.material);
+  else if (source.map_ptr != nullptr)
+    surface.set_materials(*source.map_ptr);
+}
 
 Session::Session(std::shared_ptr<const SessionModel> model, deform::MaterialArrays materials,
                  std::vector<ProbeSetup> probes)
     : model_(std::move(model)) {
   if (!model_ || !model_->mesh || !model_->tree) throw std::invalid_argument("session: no model");
-  materials_ = source_of(materials);
+  materials_ = material_source_of(materials);
   surface_ = std::make_unique<deform::DeformableSurface>(model_->mesh, std::move(materials), model_->options);
   core_ = std::make_unique<LoopCore>(*model_->tree, *model_->mesh, model_->config, std::move(probes));
   surface_->take_dirty_ranges();
@@ -57,21 +60,15 @@ void Session::set_materials(deform::MaterialArrays materials, double t) {
   materials.validate(model_->mesh->vertex_count());
   auto kept = std::make_shared<const deform::MaterialArrays>(std::move(materials));
   kept_maps_.push_back(kept);
-  LoopCommand c;
-  c.kind = LoopCommandKind::SetMaterialMap;
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetMaterialMap);
   c.materials = kept.get();
   core_->apply(c, t);
 }
 
 void Session::apply_edits_now() {
-  const DeformEdits e = core_->state().pending;
-  if (!e.any()) return;
-  CoreState s = core_->state();
-  s.pending = DeformEdits{};
-  core_->set_state(s);
-  if (e.reset) surface_->reset();
-  if (e.material == 1) surface_->set_uniform_material(e.uniform);
-  if (e.material == 2 && e.map != nullptr) surface_->set_materials(*e.map);
+  if (!core_->state().pending.any()) return;
+  const DeformEdits e = core_->take_pending_edits();
+  apply_deform_edits(*surface_, e);
   note_materials(e);
 }
 
@@ -127,11 +124,7 @@ SessionState Session::snapshot() const {
 
 void Session::restore(const SessionState& s) {
   // Materials first (they shape the fields the restore rebuilds).
-  if (s.materials.uniform) {
-    surface_->set_uniform_material(s.materials.material);
-  } else if (s.materials.map_ptr != nullptr) {
-    surface_->set_materials(*s.materials.map_ptr);
-  }
+  apply_material_source(*surface_, s.materials);
   surface_->restore(s.surface, s.contacts);
   core_->set_state(s.core);
   tick_ = s.tick;

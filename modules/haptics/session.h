@@ -48,6 +48,13 @@ struct MaterialSource {
   const deform::MaterialArrays* map_ptr = nullptr;      ///< the map the commands named (== map.get() or external)
 };
 
+/// The source of `materials`: one material when every vertex has it, else
+/// a copy of the map (kept by the source).
+MaterialSource material_source_of(const deform::MaterialArrays& materials);
+/// Gives `surface` the materials of `source` (a map named by pointer only
+/// must still be alive).
+void apply_material_source(deform::DeformableSurface& surface, const MaterialSource& source);
+
 /// Everything that changes while a session runs: a copy is a snapshot.
 struct SessionState {
   CoreState core;

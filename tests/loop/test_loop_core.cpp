@@ -42,7 +42,7 @@ class LoopCoreTest : public ::testing::Test {
 
   std::unique_ptr<LoopCore> make(std::vector<ProbeSetup> s) {
     auto core = std::make_unique<LoopCore>(*tree_, *mesh_, config_, std::move(s));
-    for (std::size_t i = 0; i < core->probe_count(); ++i) core->apply({LoopCommandKind::Enable, std::uint32_t(i), {}}, 0);
+    for (std::size_t i = 0; i < core->probe_count(); ++i) core->apply(LoopCommand::of(LoopCommandKind::Enable, std::uint32_t(i)), 0);
     return core;
   }
 
@@ -184,7 +184,7 @@ TEST_F(LoopCoreTest, DeviceStatesWithholdForceAndFaultsLatch) {
   for (int i = 0; i < 10; ++i) r = tick(*core, Vec3(0, 0, -0.002));
   EXPECT_EQ(r.force_device, (Triple{0, 0, 0}));  // latched
   EXPECT_TRUE(r.flags & kSafetyFaultLatched);
-  core->apply({LoopCommandKind::Enable, 0, {}}, t_);
+  core->apply(LoopCommand::of(LoopCommandKind::Enable, 0), t_);
   r = tick(*core, Vec3(0, 0, -0.002));
   EXPECT_GT(r.force_device[2], 0.9);
 

@@ -91,7 +91,7 @@ std::vector<ProbeCheck> run(LoopCore& core, deform::DeformableSurface& surface, 
       core.apply(c, t);
     }
     if (fz.chance(0.002))
-      core.apply({LoopCommandKind::Enable, static_cast<std::uint32_t>(fz.pick(static_cast<int>(n))), {}}, t);
+      core.apply(LoopCommand::of(LoopCommandKind::Enable, static_cast<std::uint32_t>(fz.pick(static_cast<int>(n)))), t);
 
     // Inputs: a random walk in a shell around the sphere with every kind of glitch.
     for (std::size_t i = 0; i < n; ++i) {
