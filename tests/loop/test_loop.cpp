@@ -54,6 +54,23 @@ ProbeBinding binding(devices::Device& d) {
 
 double norm(double x, double y, double z) { return std::sqrt(x * x + y * y + z * z); }
 
+// A loop on the plane Scene with one fake device at height z (m), driven
+// tick by tick by a manual clock that also stamps the device's samples.
+struct ClockedLoop {
+  explicit ClockedLoop(double z) {
+    st.clock = [this] { return clock.now_s(); };
+    st.z = z;
+    dev = test::make_fake_device(st);
+    loop = std::make_unique<HapticLoop>(s.mesh, s.materials(), deform::SurfaceOptions{}, config(1000, 250, &clock),
+                                        std::vector<ProbeBinding>{binding(dev)});
+  }
+  Scene s;
+  test::ManualClock clock;
+  test::FakeDeviceState st;
+  devices::Device dev;
+  std::unique_ptr<HapticLoop> loop;
+};
+
 // ---- real clock: smoke tests ------------------------------------------------
 
 TEST(HapticLoop, RunsOnTheRealClockAndPublishes) {
@@ -111,13 +128,10 @@ TEST(HapticLoop, RunsUpToTenKilohertz) {
 // ---- manual clock: behaviour by tick ------------------------------------------
 
 TEST(HapticLoop, EnableRampsInToStiffnessTimesDepth) {
-  Scene s;
-  test::ManualClock clock;
-  test::FakeDeviceState st;
-  st.clock = [&clock] { return clock.now_s(); };
-  st.z = -0.002;
-  auto dev = test::make_fake_device(st);
-  HapticLoop loop(s.mesh, s.materials(), {}, config(1000, 250, &clock), {binding(dev)});
+  ClockedLoop rig(-0.002);
+  test::ManualClock& clock = rig.clock;
+  test::FakeDeviceState& st = rig.st;
+  HapticLoop& loop = *rig.loop;
   loop.start();
   // Not enabled: every command is zero.
   double most = 0;
@@ -154,13 +168,10 @@ TEST(HapticLoop, EnableRampsInToStiffnessTimesDepth) {
 }
 
 TEST(HapticLoop, UnplugGivesZeroForceAndALatchedFault) {
-  Scene s;
-  test::ManualClock clock;
-  test::FakeDeviceState st;
-  st.clock = [&clock] { return clock.now_s(); };
-  st.z = -0.002;
-  auto dev = test::make_fake_device(st);
-  HapticLoop loop(s.mesh, s.materials(), {}, config(1000, 250, &clock), {binding(dev)});
+  ClockedLoop rig(-0.002);
+  test::ManualClock& clock = rig.clock;
+  test::FakeDeviceState& st = rig.st;
+  HapticLoop& loop = *rig.loop;
   loop.start();
   loop.enable(0);
   ASSERT_TRUE(test::run_ticks(loop, clock, 150));
@@ -190,13 +201,10 @@ TEST(HapticLoop, UnplugGivesZeroForceAndALatchedFault) {
 }
 
 TEST(HapticLoop, StopCommandsZeroForceThatExpiresAtOnce) {
-  Scene s;
-  test::ManualClock clock;
-  test::FakeDeviceState st;
-  st.clock = [&clock] { return clock.now_s(); };
-  st.z = -0.002;
-  auto dev = test::make_fake_device(st);
-  HapticLoop loop(s.mesh, s.materials(), {}, config(1000, 250, &clock), {binding(dev)});
+  ClockedLoop rig(-0.002);
+  test::ManualClock& clock = rig.clock;
+  test::FakeDeviceState& st = rig.st;
+  HapticLoop& loop = *rig.loop;
   loop.start();
   loop.enable(0);
   ASSERT_TRUE(test::run_ticks(loop, clock, 150));
@@ -209,13 +217,11 @@ TEST(HapticLoop, StopCommandsZeroForceThatExpiresAtOnce) {
 }
 
 TEST(HapticLoop, RestartsWhereItStopped) {
-  Scene s;
-  test::ManualClock clock;
-  test::FakeDeviceState st;
-  st.clock = [&clock] { return clock.now_s(); };
-  st.z = -0.002;
-  auto dev = test::make_fake_device(st);
-  HapticLoop loop(s.mesh, s.materials(), {}, config(1000, 250, &clock), {binding(dev)});
+  ClockedLoop rig(-0.002);
+  Scene& s = rig.s;
+  test::ManualClock& clock = rig.clock;
+  test::FakeDeviceState& st = rig.st;
+  HapticLoop& loop = *rig.loop;
   loop.start();
   loop.enable(0);
   ASSERT_TRUE(test::run_ticks(loop, clock, 200));
@@ -245,13 +251,11 @@ TEST(HapticLoop, RestartsWhereItStopped) {
 Index block_of(Index i) { return i / core::SurfaceMailbox::kBlock; }
 
 TEST(HapticLoop, RendererGetsTheChangedStreamEntries) {
-  Scene s;
-  test::ManualClock clock;
-  test::FakeDeviceState st;
-  st.clock = [&clock] { return clock.now_s(); };
-  st.z = 0.01;
-  auto dev = test::make_fake_device(st);
-  HapticLoop loop(s.mesh, s.materials(), {}, config(1000, 250, &clock), {binding(dev)});
+  ClockedLoop rig(0.01);
+  Scene& s = rig.s;
+  test::ManualClock& clock = rig.clock;
+  test::FakeDeviceState& st = rig.st;
+  HapticLoop& loop = *rig.loop;
   std::vector<float> stream;
   auto first = loop.take_surface_changes(stream);
   ASSERT_EQ(first.size(), 1u);
