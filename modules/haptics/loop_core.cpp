@@ -194,7 +194,6 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
                     ContactSet& contacts) noexcept {
   const std::size_t n = std::min({probe_count(), inputs.size(), results.size()});
   const double period = config_.period();
-  state_.next_tick = tick + 1;
 
   // Watchdogs: the loop itself late, or the deformation model too old.
   std::uint32_t common = 0;

@@ -213,7 +213,6 @@ struct CoreState {
   deform::ShapeFunction shape;        ///< shape function given to contacts now
   double last_tick_time = 0;          ///< s
   bool have_last_tick = false;
-  std::uint64_t next_tick = 0;        ///< the tick number tick() expects next
   double deform_phase = 0;            ///< deformation steps owed, in steps (0 .. 1)
   std::uint64_t generations = 0;      ///< deformation steps requested so far
   DeformEdits pending;                ///< edits waiting for the next request
