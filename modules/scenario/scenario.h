@@ -1,0 +1,131 @@
+#pragma once
+// The scenario file: one palpation case as an educator writes it down
+// (docs/SCENARIO.md). A versioned JSON file with its units stated once
+// (mm, kPa, N, s); SI inside the program. Unknown keys are refused; every
+// error names the file and the JSON pointer of the fault, e.g.
+//   case.json: /lesions/1/radius_mm: expected a positive number of millimetres, got -3
+
+#include "deform/shape_function.h"
+#include "tissue/field.h"
+#include "tissue/lesion.h"
+#include "tissue/regions.h"
+#include "tissue/tissue.h"
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace palpa::scenario {
+
+/// The one version this build reads and writes.
+inline constexpr int kScenarioVersion = 1;
+
+/// A fault in a scenario file: what() is "<file>: <pointer>: <message>".
+class ScenarioError : public std::runtime_error {
+ public:
+  ScenarioError(const std::string& file, const std::string& pointer, const std::string& message);
+  const std::string& file() const { return file_; }
+  const std::string& pointer() const { return pointer_; }
+  const std::string& message() const { return message_; }
+
+ private:
+  std::string file_, pointer_, message_;
+};
+
+struct OrganRef {
+  std::string path;                 ///< as written, relative to the scenario file ("default" = the bundled organ)
+  std::filesystem::path resolved;   ///< absolute (set by the reader)
+  std::string unit = "mm";          ///< the mesh file's unit: m, cm, mm
+  std::string sha256;               ///< of the mesh file's bytes (hex; empty: not checked)
+};
+
+struct ProbeSpec {
+  double tip_radius = tissue::kDefaultTipRadius;  ///< m
+  deform::ShapeFunction shape;                    ///< kind and support radius (m)
+};
+
+/// A lesion as written: either a centre, or a surface point and a depth
+/// (of the lesion's centre, m) along the inward normal there.
+struct LesionSpec {
+  tissue::Lesion lesion;            ///< centre used when !from_surface
+  bool from_surface = false;
+  Vec3 surface_point = Vec3::Zero();  ///< m, organ frame (the nearest surface point is used)
+  double depth = 0;                   ///< m, of the centre below that point
+};
+
+/// Seeded random lesions: `count` lesions with radius, centre depth and
+/// modulus ratio drawn uniformly from the ranges, placed below surface
+/// points of `region` (a region's name; empty: anywhere on the organ).
+struct RandomLesions {
+  std::uint32_t count = 0;
+  std::uint64_t seed = 1;
+  double radius_min = 0.004, radius_max = 0.008;   ///< m
+  double depth_min = 0.008, depth_max = 0.02;      ///< m, of the centre
+  double ratio_min = 3, ratio_max = 6;             ///< dimensionless
+  std::string region;
+  tissue::Visibility visibility = tissue::Visibility::Hidden;
+};
+
+/// What the trainee reports about each lesion found.
+struct ReportFields {
+  bool position = true;
+  bool size = true;
+  bool consistency = true;
+};
+
+/// Scoring settings the assessment uses.
+struct Scoring {
+  double position_tolerance = 0.01;  ///< m: a reported lesion within this distance counts as found
+  double size_tolerance = 0.5;       ///< fraction of the true diameter
+  double pass_score = 0.7;           ///< 0..1
+  double weight_found = 0.5;         ///< weights of the parts of the score (sum > 0)
+  double weight_size = 0.15;
+  double weight_consistency = 0.1;
+  double weight_force = 0.15;        ///< staying under the force limit
+  double weight_coverage = 0.1;      ///< of the organ surface palpated
+};
+
+struct Task {
+  std::string instructions;
+  double time_limit = 300;   ///< s (0: none)
+  ReportFields report;
+  double force_limit = 8.0;  ///< N: above this the trainee pressed too hard
+  Scoring scoring;
+};
+
+struct Scenario {
+  int version = kScenarioVersion;
+  std::string title;
+  std::string description;
+  OrganRef organ;
+  ProbeSpec probe;
+  std::vector<tissue::Tissue> tissues;   ///< named; presets resolved to values
+  std::string base_tissue;               ///< a name in tissues
+  std::vector<tissue::Region> regions;   ///< in the order they combine
+  std::vector<LesionSpec> lesions;
+  RandomLesions random_lesions;
+  std::vector<tissue::Pulse> pulses;
+  tissue::Breathing breathing;
+  std::vector<tissue::DynamicRegion> dynamic_regions;
+  Task task;
+  std::filesystem::path file;            ///< where it was read from (not written)
+};
+
+/// Reads and validates a scenario file. Refuses a non-regular file or one
+/// over 16 MiB. Throws ScenarioError.
+Scenario load_scenario(const std::filesystem::path& file);
+/// Parses scenario JSON text; `file` names it in messages and resolves relative paths.
+Scenario parse_scenario(const std::string& text, const std::filesystem::path& file);
+/// The JSON text of a scenario (file units: mm, kPa, N, s), 2-space indented, keys in a fixed order.
+std::string to_json_text(const Scenario& s);
+/// Writes atomically: a temporary file in the same folder, flushed, then
+/// renamed over `file`; on any failure the old file is left as it was.
+/// Throws ScenarioError naming the file.
+void save_scenario(const Scenario& s, const std::filesystem::path& file);
+/// A human summary for `palpa scenario check`.
+std::string summary(const Scenario& s);
+
+}  // namespace palpa::scenario
