@@ -15,6 +15,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # workbench and rendering: Qt5 with VTK's widget, offscreen GL (OSMesa, EGL), Xvfb for GUI tests
   qtbase5-dev libvtk9-qt-dev libosmesa6-dev libegl-dev libgl-dev xvfb xauth
+  # session recorder (SQLite C API, deflated columns, SHA-256) and replay to video (OpenCV VideoWriter)
+  libsqlite3-dev zlib1g-dev libssl-dev libopencv-dev
   # devices: SpaceMouse (hidapi), Falcon (libusb), OpenIGTLink bridge, emulated devices in tests
   libhidapi-dev libusb-1.0-0-dev libopenigtlink-dev umockdev libumockdev-dev
 )
