@@ -2,6 +2,7 @@
 // virtual probes at a fixed haptic rate, printing forces and timings. It needs
 // no display and no device; it is the headless main job of Palpa.
 
+#include "app/cli/record_job.h"
 #include "app/cli/scenario_job.h"
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
@@ -40,6 +41,7 @@ struct Options {
   double radius = 0.025;       // shape-function support, m
   double friction = 0.2;       // K of eq. (4)
   double max_force = 8.0;      // N
+  std::string record;          // session file to record into (empty: none)
 };
 
 void usage() {
@@ -54,6 +56,7 @@ void usage() {
       "  --depth M            maximum indentation, m (default 0.008)\n"
       "  --stiffness N_PER_M  vertex stiffness, N/m (default 200)\n"
       "  --friction K         friction coefficient of eq. (4) (default 0.2)\n"
+      "  --record SESSION     record the session into a new session file (palpa-replay, palpa-assess)\n"
       "  --scenario FILE ...  run a scenario instead (palpa-palpate --scenario FILE --help for its options)");
 }
 
@@ -87,6 +90,7 @@ bool parse(int argc, char** argv, Options& o) {
     else if (a == "--depth") o.depth = number("--depth");
     else if (a == "--stiffness") o.stiffness = number("--stiffness");
     else if (a == "--friction") o.friction = number("--friction");
+    else if (a == "--record") o.record = next("--record");
     else { std::fprintf(stderr, "palpa-palpate: unknown option '%s'\n", a.c_str()); usage(); return false; }
   }
   return true;
@@ -199,6 +203,18 @@ int main(int argc, char** argv) {
     script.push_back(sp);
   }
 
+  // --record: every tick, step and a snapshot every few seconds into a session file.
+  std::unique_ptr<palpa::record::Recorder> recorder;
+  if (!o.record.empty()) {
+    try {
+      recorder = palpa::app::open_recording(o.record, *model, palpa::deform::MaterialArrays::uniform(mesh->vertex_count(), mat),
+                                            setups, palpa::app::session_info(o.mesh));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "palpa-palpate: %s\n", e.what());
+      return 1;
+    }
+  }
+
   std::vector<palpa::haptics::ProbeTickInput> in(o.probes);
   std::vector<palpa::haptics::ProbeTickResult> out(o.probes);
 
@@ -239,7 +255,8 @@ int main(int argc, char** argv) {
     // One session step: collision and force for every probe (eq. 4), then
     // the deformation step with their contacts.
     auto a0 = Clock::now();
-    const bool due = session.tick(t, in, out);
+    const bool due = recorder ? false : session.tick(t, in, out);
+    if (recorder) palpa::record::record_step(*recorder, session, t, in, out);  // tick and step, timed as the tick
     auto a1 = Clock::now();
     if (due) session.deform(session.core().request());
     auto a2 = Clock::now();
@@ -267,5 +284,13 @@ int main(int argc, char** argv) {
   std::printf("deformation step (active set): p50 %.1f us, p99 %.1f us, peak %zu active of %zu vertices\n",
               percentile(step_us, 0.5), percentile(step_us, 0.99), peak_active, mesh->vertex_count());
   std::printf("peak force %.3f N (limit %.1f N)\n", peak_force, o.max_force);
+  if (recorder) {
+    try {
+      palpa::app::close_recording(*recorder, stdout);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "palpa-palpate: %s\n", e.what());
+      return 1;
+    }
+  }
   return 0;
 }

@@ -2,6 +2,8 @@
 
 #include "app/cli/scenario_job.h"
 
+#include "app/cli/record_job.h"
+
 #include "haptics/indent.h"
 #include "haptics/session.h"
 #include "scenario/resolve.h"
@@ -31,15 +33,17 @@ struct ScenarioOptions {
   double seconds = 5.0;
   double rate_hz = 1000.0;
   int probes = 1;
+  std::string record;  // session file (empty: none)
 };
 
 const char* kUsage =
-    "usage: palpa-palpate --scenario FILE [--seconds S] [--rate HZ] [--probes N]\n"
+    "usage: palpa-palpate --scenario FILE [--seconds S] [--rate HZ] [--probes N] [--record SESSION]\n"
     "       palpa-palpate --scenario FILE --indent X,Y,Z --depths FROM:TO:STEP [--json OUT]\n"
     "  --scenario FILE        the scenario (docs/SCENARIO.md)\n"
     "  --seconds S            simulated time of the scripted run, s, in (0, 3600] (default 5)\n"
     "  --rate HZ              haptic rate, Hz, in [100, 10000] (default 1000)\n"
     "  --probes N             scripted probes, integer in [1, 8] (default 1)\n"
+    "  --record SESSION       record the scripted run into a new session file\n"
     "  --indent X,Y,Z         press at the surface point nearest to X,Y,Z (m, world frame at t = 0)\n"
     "  --depths FROM:TO:STEP  indentation depths, m (0 <= FROM <= TO, STEP > 0, at most 10000 depths)\n"
     "  --json OUT             write one record per depth: depth_m, force_n, surface_point_m\n";
@@ -90,6 +94,8 @@ ScenarioOptions parse(const std::vector<std::string>& args) {
         throw Usage("--depths: expected 0 <= FROM <= TO and STEP > 0, got '" + args[i] + "'");
       if ((o.to - o.from) / o.step > 10000) throw Usage("--depths: at most 10000 depths, got '" + args[i] + "'");
       have_depths = true;
+    } else if (a == "--record") {
+      o.record = value();
     } else if (a == "--json") {
       o.json = value();
     } else if (a == "--seconds") {
@@ -109,6 +115,7 @@ ScenarioOptions parse(const std::vector<std::string>& args) {
   if (o.scenario.empty()) throw Usage("--scenario needs a file");
   if (o.indent != have_depths) throw Usage("--indent and --depths go together");
   if (!o.json.empty() && !o.indent) throw Usage("--json goes with --indent");
+  if (!o.record.empty() && o.indent) throw Usage("--record goes with the scripted run, not --indent");
   return o;
 }
 
@@ -165,7 +172,12 @@ int run_scripted(const ScenarioOptions& o, const scenario::Resolved& r) {
     setups[j].spec.position_dof = 3;
     setups[j].safety.max_jump = 1e9;
   }
-  haptics::Session session(model, deform::MaterialArrays::uniform(m.vertex_count(), r.tissues[r.base]), setups);
+  const auto initial = deform::MaterialArrays::uniform(m.vertex_count(), r.tissues[r.base]);
+  haptics::Session session(model, initial, setups);
+  std::unique_ptr<record::Recorder> recorder;
+  if (!o.record.empty())
+    recorder = open_recording(o.record, *model, initial, setups,
+                              session_info(r.organ.name, o.scenario, r.scenario.task.force_limit));
   Vec3 lo = m.positions[0], hi = lo;
   for (const Vec3& p : m.positions) {
     lo = lo.cwiseMin(p);
@@ -204,7 +216,10 @@ int run_scripted(const ScenarioOptions& o, const scenario::Resolved& r) {
       s.sequence = static_cast<std::uint64_t>(n) + 1;
       s.time = t;
     }
-    session.step(t, in, out);
+    if (recorder)
+      record::record_step(*recorder, session, t, in, out);
+    else
+      session.step(t, in, out);
     for (const auto& po : out) {
       const double f = haptics::to_vec(po.force_world).norm();
       peak = std::max(peak, f);
@@ -220,6 +235,7 @@ int run_scripted(const ScenarioOptions& o, const scenario::Resolved& r) {
   std::printf("peak force %.3f N (task limit %.1f N, exceeded in %ld probe-ticks); in contact %.0f%% of probe-ticks\n",
               peak, r.scenario.task.force_limit, over,
               100.0 * static_cast<double>(contact_ticks) / static_cast<double>(std::max<long>(1, ticks * o.probes)));
+  if (recorder) close_recording(*recorder, stdout);
   return 0;
 }
 

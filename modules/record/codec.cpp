@@ -79,6 +79,18 @@ std::vector<std::uint8_t> encode_column(const void* data, std::size_t count, std
   return out;
 }
 
+std::vector<std::uint8_t> same_as_position_column(std::size_t count, std::size_t width) {
+  std::vector<std::uint8_t> out(6);
+  out[0] = static_cast<std::uint8_t>(Codec::SameAsPosition);
+  out[1] = static_cast<std::uint8_t>(width);
+  put_u32(out, 2, static_cast<std::uint32_t>(count));
+  return out;
+}
+
+bool is_same_as_position(std::span<const std::uint8_t> blob) {
+  return blob.size() == 6 && blob[0] == static_cast<std::uint8_t>(Codec::SameAsPosition);
+}
+
 void decode_column(std::span<const std::uint8_t> blob, std::size_t expected_count, std::size_t width, void* out) {
   if (blob.size() < 6) throw DecodeError("column of " + std::to_string(blob.size()) + " bytes has no header");
   const auto codec = static_cast<Codec>(blob[0]);

@@ -26,10 +26,15 @@
 namespace palpa::record::internal {
 
 
-enum class Codec : std::uint8_t { Raw = 0, XorFloat = 1, DeltaInt = 2 };
+enum class Codec : std::uint8_t { Raw = 0, XorFloat = 1, DeltaInt = 2, SameAsPosition = 3 };
 
 /// Encodes `count` elements of `width` bytes at `data`.
 std::vector<std::uint8_t> encode_column(const void* data, std::size_t count, std::size_t width, Codec codec);
+/// A column that repeats the position column (the world position under an
+/// identity mapping): the header alone.
+std::vector<std::uint8_t> same_as_position_column(std::size_t count, std::size_t width);
+/// True when `blob` is such a column.
+bool is_same_as_position(std::span<const std::uint8_t> blob);
 /// Decodes a column BLOB of `expected_count` elements of `width` bytes into `out`
 /// (count * width bytes). Throws DecodeError naming what is wrong.
 void decode_column(std::span<const std::uint8_t> blob, std::size_t expected_count, std::size_t width, void* out);

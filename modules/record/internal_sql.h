@@ -27,8 +27,8 @@ CREATE TABLE probe_chunks(first_tick INTEGER NOT NULL, probe INTEGER NOT NULL, c
   buttons BLOB NOT NULL, status BLOB NOT NULL, read_ok BLOB NOT NULL, force_device BLOB NOT NULL, flags BLOB NOT NULL,
   world BLOB, force_world BLOB, contact_point BLOB, depth BLOB, state BLOB,
   PRIMARY KEY (first_tick, probe)) WITHOUT ROWID;
-CREATE TABLE deforms(generation INTEGER PRIMARY KEY, contacts_tick INTEGER NOT NULL, time REAL NOT NULL,
-  dt REAL NOT NULL, contacts BLOB NOT NULL);
+CREATE TABLE deform_chunks(first_generation INTEGER PRIMARY KEY, count INTEGER NOT NULL,
+  contacts_tick BLOB NOT NULL, time BLOB NOT NULL, dt BLOB NOT NULL);
 CREATE TABLE commands(seq INTEGER PRIMARY KEY, tick INTEGER NOT NULL, time REAL NOT NULL, kind INTEGER NOT NULL,
   probe INTEGER NOT NULL, immediate INTEGER NOT NULL, payload BLOB NOT NULL);
 CREATE TABLE events(seq INTEGER PRIMARY KEY, tick INTEGER NOT NULL, time REAL NOT NULL, kind TEXT NOT NULL,
@@ -39,7 +39,7 @@ CREATE TABLE status(id INTEGER PRIMARY KEY CHECK (id = 0), state TEXT NOT NULL, 
   commits INTEGER NOT NULL, pid INTEGER NOT NULL, host TEXT NOT NULL);
 )sql";
 
-inline constexpr const char* kTables[] = {"meta",     "mesh",      "tick_chunks", "probe_chunks", "deforms",
+inline constexpr const char* kTables[] = {"meta",     "mesh",      "tick_chunks", "probe_chunks", "deform_chunks",
                                           "commands", "events",    "snapshots",   "status"};
 
 class Stmt;

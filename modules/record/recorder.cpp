@@ -212,6 +212,10 @@ struct Recorder::Impl {
   void write_item(const haptics::TickRecord& t, const haptics::ProbeTickResult* r);
   void write_command(const haptics::CommandRecord& c);
   void write_deform(const haptics::DeformRecord& d);
+  void write_deform_chunk();
+  std::uint64_t def_first = 0;
+  std::vector<std::uint64_t> def_tick;
+  std::vector<double> def_time, def_dt;
   void write_event(const EventRecord& e);
   std::size_t drain(std::size_t limit);
   void commit(const char* state);
@@ -246,7 +250,11 @@ void Recorder::Impl::write_chunk() {
     p.bind(11, col(c.force_device, 1, Codec::XorFloat));
     p.bind(12, col(c.flags, 1, Codec::DeltaInt));
     if (chunk.results) {
-      p.bind(13, col(c.world, 1, Codec::XorFloat));
+      if (c.world.size() == c.position.size() &&
+          std::memcmp(c.world.data(), c.position.data(), c.world.size() * sizeof(double)) == 0)
+        p.bind(13, same_as_position_column(c.world.size(), sizeof(double)));
+      else
+        p.bind(13, col(c.world, 1, Codec::XorFloat));
       p.bind(14, col(c.force_world, 1, Codec::XorFloat));
       p.bind(15, col(c.contact_point, 1, Codec::XorFloat));
       p.bind(16, col(c.depth, 1, Codec::XorFloat));
@@ -280,18 +288,30 @@ void Recorder::Impl::write_command(const haptics::CommandRecord& c) {
   s.run();
 }
 
-void Recorder::Impl::write_deform(const haptics::DeformRecord& d) {
-  Writer w;
-  w.put(d.contacts.tick);
-  w.put(d.contacts.count);
-  for (std::uint32_t k = 0; k < d.contacts.count && k < haptics::kMaxProbes; ++k) w.put(d.contacts.contacts[k]);
+// Deformation steps go in chunks of consecutive generations: the replay
+// needs each step's generation, the tick that asked for it, its time and
+// its dt (it re-makes the contacts from the ticks).
+void Recorder::Impl::write_deform_chunk() {
+  if (def_tick.empty()) return;
   Stmt& s = *ins_def;
-  s.bind(1, static_cast<std::int64_t>(d.generation));
-  s.bind(2, static_cast<std::int64_t>(d.contacts_tick));
-  s.bind(3, d.time);
-  s.bind(4, d.dt);
-  s.bind(5, w.bytes());
+  s.bind(1, static_cast<std::int64_t>(def_first));
+  s.bind(2, static_cast<std::int64_t>(def_tick.size()));
+  s.bind(3, col(def_tick, 1, Codec::DeltaInt));
+  s.bind(4, col(def_time, 1, Codec::XorFloat));
+  s.bind(5, col(def_dt, 1, Codec::XorFloat));
   s.run();
+  def_tick.clear();
+  def_time.clear();
+  def_dt.clear();
+}
+
+void Recorder::Impl::write_deform(const haptics::DeformRecord& d) {
+  if (!def_tick.empty() && d.generation != def_first + def_tick.size()) write_deform_chunk();
+  if (def_tick.empty()) def_first = d.generation;
+  def_tick.push_back(d.contacts_tick);
+  def_time.push_back(d.time);
+  def_dt.push_back(d.dt);
+  if (def_tick.size() >= options.chunk_ticks) write_deform_chunk();
 }
 
 void Recorder::Impl::write_event(const EventRecord& e) {
@@ -336,6 +356,7 @@ std::size_t Recorder::Impl::drain(std::size_t limit) {
 // Writes the partial chunk and the snapshots, updates the status row and commits.
 void Recorder::Impl::commit(const char* state) {
   write_chunk();
+  write_deform_chunk();
   std::vector<std::pair<SnapshotInfo, std::vector<std::uint8_t>>> s;
   {
     std::lock_guard<std::mutex> lock(snap_mutex);
@@ -497,7 +518,7 @@ Recorder::Recorder(const std::filesystem::path& file, const haptics::SessionMode
   m.ins_probe = std::make_unique<Stmt>(
       m.db, "INSERT INTO probe_chunks VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   m.ins_cmd = std::make_unique<Stmt>(m.db, "INSERT INTO commands VALUES (?, ?, ?, ?, ?, ?, ?)");
-  m.ins_def = std::make_unique<Stmt>(m.db, "INSERT OR REPLACE INTO deforms VALUES (?, ?, ?, ?, ?)");
+  m.ins_def = std::make_unique<Stmt>(m.db, "INSERT INTO deform_chunks VALUES (?, ?, ?, ?, ?)");
   m.ins_evt = std::make_unique<Stmt>(
       m.db, "INSERT INTO events(tick, time, kind, probe, x, y, z, value, text) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)");
   m.ins_snap = std::make_unique<Stmt>(m.db, "INSERT OR REPLACE INTO snapshots VALUES (?, ?, ?, ?)");

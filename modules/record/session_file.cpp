@@ -158,8 +158,14 @@ struct SessionFile::Impl {
   [[noreturn]] void damaged(const std::string& what) const { throw RecordError(file, "damaged (" + what + ")"); }
 
   template <class T>
-  void column(const Stmt& s, int c, std::size_t count, std::vector<T>& out, const char* name) const {
+  void column(const Stmt& s, int c, std::size_t count, std::vector<T>& out, const char* name,
+              const std::vector<T>* position = nullptr) const {
     out.resize(count);
+    if (position && is_same_as_position(s.blob(c))) {
+      if (position->size() != count) damaged(std::string(name) + ": does not match the position column");
+      out = *position;
+      return;
+    }
     try {
       decode_column(s.blob(c), count, sizeof(T), out.data());
     } catch (const DecodeError& e) {
@@ -413,7 +419,7 @@ TickSpan SessionFile::ticks(std::uint64_t from, std::uint64_t to) const {
       m.column(pc, 10, n, p.flags, "flags");
       results = !pc.is_null(11);
       if (results) {
-        m.column(pc, 11, 3 * n, p.world, "world");
+        m.column(pc, 11, 3 * n, p.world, "world", &p.position);
         m.column(pc, 12, 3 * n, p.force_world, "force_world");
         m.column(pc, 13, 3 * n, p.contact_point, "contact_point");
         m.column(pc, 14, n, p.depth, "depth");
@@ -497,28 +503,29 @@ std::vector<haptics::DeformRecord> SessionFile::deforms(std::uint64_t from, std:
   const Impl& m = *impl_;
   std::vector<haptics::DeformRecord> out;
   const auto lim = [](std::uint64_t v) { return static_cast<std::int64_t>(std::min<std::uint64_t>(v, INT64_MAX)); };
-  Stmt s(m.db,
-         "SELECT generation, contacts_tick, time, dt, contacts FROM deforms WHERE contacts_tick >= ? AND "
-         "contacts_tick < ? ORDER BY generation");
-  s.bind(1, lim(from));
-  s.bind(2, lim(to));
+  (void)lim;
+  // Chunks of consecutive generations; the ticks that asked for them grow with the generation.
+  Stmt s(m.db, "SELECT first_generation, count, contacts_tick, time, dt FROM deform_chunks ORDER BY first_generation");
+  std::vector<std::uint64_t> tick;
+  std::vector<double> time, dt;
   while (s.step()) {
-    haptics::DeformRecord d;
-    d.generation = static_cast<std::uint64_t>(s.integer(0));
-    d.contacts_tick = static_cast<std::uint64_t>(s.integer(1));
-    d.time = s.real(2);
-    d.dt = s.real(3);
-    try {
-      Reader r(s.blob(4), "deformation step");
-      d.contacts.tick = r.get<std::uint64_t>();
-      d.contacts.count = r.get<std::uint32_t>();
-      if (d.contacts.count > haptics::kMaxProbes) throw DecodeError("too many contacts");
-      for (std::uint32_t k = 0; k < d.contacts.count; ++k) d.contacts.contacts[k] = r.get<haptics::ContactRecord>();
-      if (!r.done()) throw DecodeError("trailing bytes");
-    } catch (const DecodeError& e) {
-      m.damaged("deformation step " + std::to_string(d.generation) + ": " + e.what());
+    const auto first = static_cast<std::uint64_t>(s.integer(0));
+    const auto n = static_cast<std::size_t>(s.integer(1));
+    if (n == 0 || n > 65536) m.damaged("deformation chunk " + std::to_string(first));
+    m.column(s, 2, n, tick, "deformation ticks");
+    if (tick.back() < from) continue;
+    if (tick.front() >= to) break;
+    m.column(s, 3, n, time, "deformation times");
+    m.column(s, 4, n, dt, "deformation steps");
+    for (std::size_t i = 0; i < n; ++i) {
+      if (tick[i] < from || tick[i] >= to) continue;
+      haptics::DeformRecord d;
+      d.generation = first + i;
+      d.contacts_tick = tick[i];
+      d.time = time[i];
+      d.dt = dt[i];
+      out.push_back(d);
     }
-    out.push_back(d);
   }
   return out;
 }
@@ -562,8 +569,29 @@ DecodedState SessionFile::snapshot(std::uint64_t tick, const haptics::SessionMod
 std::array<std::int64_t, 6> SessionFile::row_counts() const {
   Db& db = const_cast<Db&>(impl_->db);
   return {db.integer("SELECT count(*) FROM tick_chunks"), db.integer("SELECT count(*) FROM probe_chunks"),
-          db.integer("SELECT count(*) FROM commands"),    db.integer("SELECT count(*) FROM deforms"),
+          db.integer("SELECT count(*) FROM commands"),    db.integer("SELECT count(*) FROM deform_chunks"),
           db.integer("SELECT count(*) FROM events"),      db.integer("SELECT count(*) FROM snapshots")};
+}
+
+StorageFigures SessionFile::storage() const {
+  Db& db = const_cast<Db&>(impl_->db);
+  StorageFigures s;
+  std::error_code ec;
+  s.file_bytes = static_cast<std::int64_t>(std::filesystem::file_size(impl_->file, ec));
+  const auto wal = std::filesystem::file_size(impl_->file.string() + "-wal", ec);
+  if (!ec) s.file_bytes += static_cast<std::int64_t>(wal);
+  s.tick_bytes = db.integer(
+      "SELECT (SELECT coalesce(sum(length(time) + length(model_generation) + length(model_time) + "
+      "length(probe_count)), 0) FROM tick_chunks) + (SELECT coalesce(sum(length(sequence) + length(sample_time) + "
+      "length(position) + length(orientation) + length(buttons) + length(status) + length(read_ok) + "
+      "length(force_device) + length(flags) + coalesce(length(world), 0) + coalesce(length(force_world), 0) + "
+      "coalesce(length(contact_point), 0) + coalesce(length(depth), 0) + coalesce(length(state), 0)), 0) FROM "
+      "probe_chunks)");
+  s.mesh_bytes = db.integer(
+      "SELECT (SELECT coalesce(sum(length(positions) + length(triangles)), 0) FROM mesh) + "
+      "(SELECT coalesce(sum(length(value)), 0) FROM meta WHERE key = 'initial_materials')");
+  s.snapshot_bytes = db.integer("SELECT coalesce(sum(length(state)), 0) FROM snapshots");
+  return s;
 }
 
 }  // namespace palpa::record

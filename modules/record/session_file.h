@@ -59,6 +59,14 @@ struct TickSpan {
   std::vector<std::array<haptics::ProbeTickResult, haptics::kMaxProbes>> results;  ///< empty: none stored
 };
 
+/// Where the bytes of a session file go.
+struct StorageFigures {
+  std::int64_t file_bytes = 0;      ///< the file and its WAL
+  std::int64_t tick_bytes = 0;      ///< the tick and probe chunk rows' BLOBs
+  std::int64_t mesh_bytes = 0;      ///< the mesh BLOBs and the initial materials
+  std::int64_t snapshot_bytes = 0;  ///< the snapshots' BLOBs
+};
+
 class SessionFile {
  public:
   /// Opens and checks `file` (see above). Throws RecordError.
@@ -81,7 +89,9 @@ class SessionFile {
   /// Every command in order; SetMaterialMap maps are kept in `keep`.
   /// Throws RecordError when the layout differs.
   std::vector<haptics::CommandRecord> commands(std::vector<std::shared_ptr<const deform::MaterialArrays>>& keep) const;
-  /// Deformation steps asked for by ticks [from, to).
+  /// Deformation steps asked for by ticks [from, to): generation, asking
+  /// tick, time and dt (their contacts are not stored: a replay re-makes
+  /// them from the ticks).
   std::vector<haptics::DeformRecord> deforms(std::uint64_t from = 0, std::uint64_t to = ~std::uint64_t{0}) const;
   std::vector<EventRecord> events() const;
   std::vector<SnapshotInfo> snapshots() const;
@@ -91,6 +101,7 @@ class SessionFile {
   /// Row counts of the tables (for the crash test): ticks chunks, probe chunks,
   /// commands, deforms, events, snapshots.
   std::array<std::int64_t, 6> row_counts() const;
+  StorageFigures storage() const;
 
  private:
   SessionFile();
