@@ -36,6 +36,10 @@ LoopReplay::LoopReplay(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::Ma
                        deform::SurfaceOptions options, const CoreConfig& config, std::vector<ProbeSetup> setups)
     : session_(std::make_unique<Session>(std::move(mesh), std::move(materials), options, config, std::move(setups))) {}
 
+LoopReplay::LoopReplay(std::shared_ptr<const SessionModel> model, deform::MaterialArrays materials,
+                       std::vector<ProbeSetup> setups)
+    : session_(std::make_unique<Session>(std::move(model), std::move(materials), std::move(setups))) {}
+
 // The live loop's record of `generation`, or null when it folded that step
 // into a later one (it does so only when it fell behind).
 const DeformRecord* LoopReplay::made_live(const LoopRecording& rec, std::uint64_t generation) {

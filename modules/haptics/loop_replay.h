@@ -40,6 +40,10 @@ class LoopReplay {
   /// as the recorded loop (HapticLoop::setups(), config().core).
   LoopReplay(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::MaterialArrays materials,
              deform::SurfaceOptions options, const CoreConfig& config, std::vector<ProbeSetup> setups);
+  /// The same on a session model (a scenario's: its tissue field and tissue
+  /// map are the recorded session's).
+  LoopReplay(std::shared_ptr<const SessionModel> model, deform::MaterialArrays materials,
+             std::vector<ProbeSetup> setups);
 
   /// Re-runs `recording` from the replay's current tick (0, or the tick of
   /// a restored state) to its end, calling `each` after every tick with the

@@ -1,0 +1,137 @@
+// Frame overlays (overlay.h).
+
+#include "app/replay/overlay.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace palpa::app {
+
+cv::Scalar probe_colour(std::size_t j) {
+  static const cv::Scalar c[] = {{230, 140, 30}, {40, 160, 240}, {200, 60, 200}, {60, 200, 60},
+                                 {30, 30, 220},  {200, 200, 40}, {120, 120, 120}, {0, 0, 0}};
+  return c[j % 8];
+}
+
+cv::Scalar level_colour(assess::Level l) {
+  switch (l) {
+    case assess::Level::Light: return {90, 200, 90};
+    case assess::Level::Medium: return {40, 210, 230};
+    case assess::Level::Deep: return {50, 60, 220};
+    default: return {170, 170, 170};
+  }
+}
+
+void draw_force_strip(cv::Mat& img, const cv::Rect& area, const std::vector<std::deque<std::pair<double, double>>>& force,
+                      double now, double span, double limit) {
+  cv::Mat roi = img(area);
+  roi = roi * 0.35 + cv::Scalar(25, 25, 25) * 0.65;
+  double top = limit > 0 ? 1.25 * limit : 1.0;
+  for (const auto& f : force)
+    for (const auto& [t, v] : f) top = std::max(top, 1.05 * v);
+  const auto y_of = [&](double v) { return area.y + area.height - 1 - static_cast<int>((area.height - 2) * v / top); };
+  const auto x_of = [&](double t) { return area.x + static_cast<int>((area.width - 1) * (1.0 - (now - t) / span)); };
+  // Pressure bands relative to the task's force limit.
+  if (limit > 0) {
+    const double edges[] = {0, 0.25 * limit, 0.5 * limit, limit, top};
+    const cv::Scalar fill[] = {{60, 90, 60}, {60, 100, 110}, {50, 80, 130}, {50, 50, 120}};
+    for (int b = 0; b < 4; ++b) {
+      cv::Rect band(area.x, y_of(edges[b + 1]), area.width, std::max(1, y_of(edges[b]) - y_of(edges[b + 1])));
+      band &= area;
+      cv::Mat sub = img(band);
+      sub = sub * 0.6 + fill[b] * 0.4;
+    }
+    cv::line(img, {area.x, y_of(limit)}, {area.x + area.width - 1, y_of(limit)}, {60, 60, 255}, 1, cv::LINE_AA);
+    cv::putText(img, cv::format("limit %.1f N", limit), {area.x + 4, y_of(limit) - 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                {90, 90, 255}, 1, cv::LINE_AA);
+  }
+  for (std::size_t j = 0; j < force.size(); ++j) {
+    std::vector<cv::Point> pts;
+    for (const auto& [t, v] : force[j])
+      if (now - t <= span) pts.emplace_back(x_of(t), y_of(v));
+    if (pts.size() > 1) cv::polylines(img, pts, false, probe_colour(j), 2, cv::LINE_AA);
+    if (!force[j].empty())
+      cv::putText(img, cv::format("probe %zu  %.2f N", j + 1, force[j].back().second),
+                  {area.x + area.width - 150, area.y + 16 + 16 * static_cast<int>(j)}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                  probe_colour(j), 1, cv::LINE_AA);
+  }
+  cv::putText(img, cv::format("|F| (N), last %.0f s; top %.1f N", span, top), {area.x + 4, area.y + 14},
+              cv::FONT_HERSHEY_SIMPLEX, 0.4, {220, 220, 220}, 1, cv::LINE_AA);
+}
+
+void draw_timeline(cv::Mat& img, const cv::Rect& area, double now, double duration, double from, double to,
+                   const std::vector<double>& snapshots, const std::vector<double>& marks,
+                   const std::vector<std::pair<double, double>>& over_limit) {
+  cv::rectangle(img, area, {30, 30, 30}, cv::FILLED);
+  const double d = std::max(duration, 1e-9);
+  const auto x_of = [&](double t) { return area.x + static_cast<int>((area.width - 1) * std::clamp(t / d, 0.0, 1.0)); };
+  const int mid = area.y + area.height / 2;
+  cv::rectangle(img, cv::Point(x_of(from), mid - 3), cv::Point(x_of(to), mid + 3), {90, 90, 90}, cv::FILLED);
+  cv::rectangle(img, cv::Point(x_of(from), mid - 3), cv::Point(x_of(now), mid + 3), {200, 170, 90}, cv::FILLED);
+  for (const auto& [a, b] : over_limit)
+    cv::rectangle(img, cv::Point(x_of(a), area.y + 2), cv::Point(std::max(x_of(a) + 1, x_of(b)), area.y + 6),
+                  {60, 60, 255}, cv::FILLED);
+  for (double s : snapshots) cv::line(img, {x_of(s), mid + 5}, {x_of(s), area.y + area.height - 2}, {150, 150, 150});
+  for (double m : marks) {
+    const std::vector<cv::Point> tri = {{x_of(m), mid - 5}, {x_of(m) - 5, area.y + 1}, {x_of(m) + 5, area.y + 1}};
+    cv::fillConvexPoly(img, tri, {40, 220, 250}, cv::LINE_AA);
+  }
+  cv::line(img, {x_of(now), area.y}, {x_of(now), area.y + area.height - 1}, {255, 255, 255}, 2);
+  cv::putText(img, cv::format("%.1f / %.1f s", now, duration), {area.x + area.width - 120, area.y + area.height - 4},
+              cv::FONT_HERSHEY_SIMPLEX, 0.4, {230, 230, 230}, 1, cv::LINE_AA);
+}
+
+void draw_text_block(cv::Mat& img, const std::vector<std::string>& lines, cv::Point at, double scale) {
+  if (lines.empty()) return;
+  const int lh = static_cast<int>(26 * scale / 0.55);
+  int w = 0;
+  for (const auto& l : lines) {
+    int base = 0;
+    w = std::max(w, cv::getTextSize(l, cv::FONT_HERSHEY_SIMPLEX, scale, 1, &base).width);
+  }
+  cv::Rect r(at.x - 6, at.y - lh + 4, w + 12, lh * static_cast<int>(lines.size()) + 6);
+  r &= cv::Rect(0, 0, img.cols, img.rows);
+  cv::Mat sub = img(r);
+  sub = sub * 0.4;
+  for (std::size_t k = 0; k < lines.size(); ++k)
+    cv::putText(img, lines[k], {at.x, at.y + lh * static_cast<int>(k)}, cv::FONT_HERSHEY_SIMPLEX, scale,
+                {240, 240, 240}, 1, cv::LINE_AA);
+}
+
+cv::Mat coverage_map(const assess::Coverage& coverage, const Vec3& view_dir, const Vec3& up, int size) {
+  cv::Mat img(size, size, CV_8UC3, cv::Scalar(40, 40, 40));
+  const auto& m = coverage.mesh();
+  const Vec3 w = view_dir.normalized();
+  const Vec3 u = up.cross(w).normalized();
+  const Vec3 v = w.cross(u);
+  double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300;
+  for (const Vec3& p : m.positions) {
+    umin = std::min(umin, p.dot(u));
+    umax = std::max(umax, p.dot(u));
+    vmin = std::min(vmin, p.dot(v));
+    vmax = std::max(vmax, p.dot(v));
+  }
+  const double ext = std::max(umax - umin, vmax - vmin) * 1.05;
+  const double cu = 0.5 * (umin + umax), cv_ = 0.5 * (vmin + vmax);
+  // Back to front, only vertices facing the eye.
+  std::vector<Index> order(m.vertex_count());
+  std::iota(order.begin(), order.end(), Index{0});
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return m.positions[a].dot(w) < m.positions[b].dot(w); });
+  const int r = std::max(1, size / 160);
+  for (Index i : order) {
+    if (m.normals[i].dot(w) <= 0) continue;
+    const Vec3& p = m.positions[i];
+    const int x = static_cast<int>(size * (0.5 + (p.dot(u) - cu) / ext));
+    const int y = static_cast<int>(size * (0.5 - (p.dot(v) - cv_) / ext));
+    const double shade = 0.55 + 0.45 * m.normals[i].dot(w);
+    cv::circle(img, {x, y}, r, level_colour(coverage.highest()[i]) * shade, cv::FILLED);
+  }
+  return img;
+}
+
+}  // namespace palpa::app

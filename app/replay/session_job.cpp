@@ -1,0 +1,129 @@
+// Opening a session with its model, and replaying it in windows (session_job.h).
+
+#include "app/replay/session_job.h"
+
+#include "scenario/resolve.h"
+#include "scenario/scenario.h"
+#include "tissue/regions.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+
+namespace palpa::app {
+
+LoadedSession load_session(const std::string& file) {
+  LoadedSession s{record::SessionFile::open(file)};
+  const auto& h = s.file.header();
+  auto mesh = s.file.mesh();
+  s.force_limit = h.info.force_limit;
+  if (!h.info.scenario_json.empty()) {
+    // The recorded scenario text, resolved again: its organ must be the recorded mesh.
+    const scenario::Scenario sc = scenario::parse_scenario(h.info.scenario_json, h.info.scenario_file);
+    const scenario::Resolved r = scenario::resolve(sc);
+    if (r.organ.mesh->positions != mesh->positions || r.organ.mesh->triangles != mesh->triangles)
+      throw std::runtime_error(file + ": the organ of its scenario (" + sc.organ.path +
+                               ") is not the recorded mesh; the organ file changed since the session");
+    s.model = haptics::SessionModel::make(mesh, h.options, h.config, r.field, r.materials);
+    s.lesions = r.lesions;
+    s.scenario_title = sc.title;
+    s.tip_radius = sc.probe.tip_radius;
+    s.force_limit = sc.task.force_limit;
+    const scenario::Scoring& sg = sc.task.scoring;
+    s.task.time_limit = sc.task.time_limit;
+    s.task.position_tolerance = sg.position_tolerance;
+    s.task.size_tolerance = sg.size_tolerance;
+    s.task.pass_score = sg.pass_score;
+    s.task.weight_found = sg.weight_found;
+    s.task.weight_size = sg.weight_size;
+    s.task.weight_consistency = sg.weight_consistency;
+    s.task.weight_force = sg.weight_force;
+    s.task.weight_coverage = sg.weight_coverage;
+    for (const auto& region : sc.regions)
+      if (region.name == "roi") {
+        s.has_roi = true;
+        s.roi = tissue::region_weights(*mesh, region);
+      }
+  } else {
+    s.model = haptics::SessionModel::make(mesh, h.options, h.config);
+  }
+  s.task.force_limit = s.force_limit;
+  s.initial = s.file.initial_materials();
+  s.commands = s.file.commands(s.kept);
+  return s;
+}
+
+namespace {
+
+// Largest component difference (N), and whether the bits differ.
+bool differs(const haptics::Triple& a, const haptics::Triple& b, double& d) {
+  d = 0;
+  for (int k = 0; k < 3; ++k) d = std::max(d, std::abs(a[k] - b[k]));
+  return std::memcmp(&a, &b, sizeof a) != 0;
+}
+
+}  // namespace
+
+void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to,
+                    const std::function<void(const haptics::TickRecord&, std::span<const haptics::ProbeTickResult>,
+                                             const deform::DeformableSurface&)>& each,
+                    ForceCheck& check, std::uint64_t window) {
+  const auto& h = s.file.header();
+  to = std::min<std::uint64_t>(to, h.ticks);
+  haptics::LoopReplay replay(s.model, s.initial, h.setups);
+  // Seek: the latest snapshot at or before `from`.
+  std::shared_ptr<const deform::MaterialArrays> pending;
+  std::uint64_t start = 0;
+  if (from > 0 && s.file.same_layout()) {
+    for (const auto& snap : s.file.snapshots())
+      if (snap.tick <= from && snap.tick > start) start = snap.tick;
+    if (start > 0) {
+      record::DecodedState d = s.file.snapshot(start, *s.model);
+      pending = d.pending_map;
+      replay.restore({std::move(d.state), {}});
+    }
+  }
+  haptics::LoopRecording rec;
+  rec.commands = s.commands;
+  for (std::uint64_t w = start; w < to; w += window) {
+    const std::uint64_t end = std::min(to, w + window);
+    record::TickSpan span = s.file.ticks(w, end);
+    if (span.ticks.empty()) break;
+    rec.ticks = std::move(span.ticks);
+    rec.deforms = s.file.deforms(w, end);
+    const auto& stored = span.results;
+    replay.run(rec, [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r) {
+      ++check.ticks;
+      for (std::size_t j = 0; j < r.size(); ++j) {
+        double d1 = 0, d2 = 0;
+        bool bad = differs(r[j].force_device, t.force_device[j], d1);
+        if (!stored.empty()) bad = differs(r[j].force_world, stored[t.tick - w][j].force_world, d2) || bad;
+        const double d = std::max(d1, d2);
+        if (bad && check.identical) {
+          check.identical = false;
+          check.first_tick = t.tick;
+          check.first_time = t.time;
+          check.first_difference = d;
+          check.first_probe = static_cast<std::uint32_t>(j);
+        }
+        check.max_difference = std::max(check.max_difference, d);
+      }
+      if (t.tick >= from && each) each(t, r, replay.surface());
+    });
+  }
+}
+
+std::string describe(const ForceCheck& c) {
+  char b[256];
+  if (c.identical)
+    std::snprintf(b, sizeof b, "forces bit-identical to the recording over %llu ticks",
+                  static_cast<unsigned long long>(c.ticks));
+  else
+    std::snprintf(b, sizeof b, "forces differ from tick %llu (t = %.6f s, probe %u) by %.3g N; at most %.3g N over %llu ticks",
+                  static_cast<unsigned long long>(c.first_tick), c.first_time, c.first_probe + 1, c.first_difference,
+                  c.max_difference, static_cast<unsigned long long>(c.ticks));
+  return b;
+}
+
+}  // namespace palpa::app

@@ -1,0 +1,71 @@
+#pragma once
+// What palpa-replay and palpa-assess share: a session file opened with its
+// session model rebuilt (the recorded mesh; for a scenario session the
+// tissue field and tissue map resolved again from the recorded scenario
+// text, its organ checked against the recorded mesh), and a replay of the
+// recorded ticks in windows (bounded memory) that checks every force
+// against the recorded one.
+
+#include "assess/assess.h"
+#include "haptics/loop_replay.h"
+#include "haptics/session.h"
+#include "record/session_file.h"
+#include "tissue/lesion.h"
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace palpa::app {
+
+/// A session file and everything needed to re-run it.
+struct LoadedSession {
+  record::SessionFile file;
+  std::shared_ptr<const haptics::SessionModel> model;
+  deform::MaterialArrays initial;
+  std::vector<haptics::CommandRecord> commands;
+  std::vector<std::shared_ptr<const deform::MaterialArrays>> kept;  ///< maps the commands point to
+  std::vector<tissue::Lesion> lesions;  ///< the scenario's, placed (empty: none)
+  std::string scenario_title;
+  double tip_radius = 0.008;            ///< m (the scenario's probe; 8 mm without one)
+  double force_limit = 0;               ///< N (0: none)
+  bool has_roi = false;                 ///< the scenario has a region named "roi"
+  std::vector<float> roi;               ///< its weights per vertex (when has_roi)
+  assess::Task task;                    ///< the scenario's task and scoring (defaults without one)
+};
+
+/// Opens `file` and rebuilds its model. Throws record::RecordError, or
+/// std::runtime_error naming the scenario when it no longer resolves or its
+/// organ is not the recorded mesh.
+LoadedSession load_session(const std::string& file);
+
+/// How the replayed forces compare with the recorded ones.
+struct ForceCheck {
+  std::uint64_t ticks = 0;            ///< ticks compared
+  bool identical = true;              ///< every force the same bits
+  std::uint64_t first_tick = 0;       ///< the first tick that differs
+  double first_time = 0;              ///< s, its time
+  double first_difference = 0;        ///< N, its largest component difference
+  double max_difference = 0;          ///< N, over every tick compared
+  std::uint32_t first_probe = 0;
+};
+
+/// Re-runs the session from tick `from` (from the latest snapshot at or
+/// before it, else from tick 0; ticks before `from` are replayed but not
+/// passed on) to `to` (exclusive), calling `each` with the recorded tick,
+/// the replayed results and the replayed surface. Compares forces
+/// (force_device always, force_world where stored) into `check`. Reads the
+/// file in windows of `window` ticks.
+void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to,
+                    const std::function<void(const haptics::TickRecord&, std::span<const haptics::ProbeTickResult>,
+                                             const deform::DeformableSurface&)>& each,
+                    ForceCheck& check, std::uint64_t window = 20000);
+
+/// One line about a force check, e.g. "forces bit-identical to the recording
+/// over 5000 ticks" or "forces differ from tick 1234 (t = 1.234 s, probe 1) by
+/// 3.1e-09 N; at most 4.2e-06 N over 5000 ticks".
+std::string describe(const ForceCheck& c);
+
+}  // namespace palpa::app
