@@ -1,0 +1,183 @@
+// palpa-palpate --record, palpa-replay and palpa-assess end to end: a
+// recorded scripted session replays bit-identical through the command line;
+// an altered input is reported from the tick it changes; the video and
+// frame outputs; the assessment files; every usage and file error by its
+// exact message.
+
+#include "record/internal_codec.h"
+
+#include <sqlite3.h>
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int rc = -1;
+  std::string out, err;
+};
+
+// Runs a command line, capturing stdout and stderr.
+Result run(const std::string& cmd) {
+  const fs::path dir = fs::temp_directory_path();
+  const std::string out = (dir / ("palpa-replay-test-out-" + std::to_string(getpid()))).string();
+  const std::string err = (dir / ("palpa-replay-test-err-" + std::to_string(getpid()))).string();
+  Result r;
+  const int status = std::system((cmd + " >" + out + " 2>" + err).c_str());
+  r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  auto slurp = [](const std::string& f) {
+    std::ifstream in(f);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  r.out = slurp(out);
+  r.err = slurp(err);
+  fs::remove(out);
+  fs::remove(err);
+  return r;
+}
+
+class ReplayCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("palpa-replay-test-" + std::to_string(getpid()));
+    fs::create_directories(dir_);
+    session_ = (dir_ / "s.palpa").string();
+    const Result r = run(std::string(PALPA_PALPATE) + " --seconds 1 --probes 2 --record " + session_);
+    ASSERT_EQ(r.rc, 0) << r.err;
+    ASSERT_NE(r.out.find("bytes per probe-tick"), std::string::npos) << r.out;
+  }
+  static inline fs::path dir_;
+  static inline std::string session_;
+};
+
+TEST_F(ReplayCli, RecordedSessionReplaysBitIdentical) {
+  const Result r = run(std::string(PALPA_REPLAY) + " " + session_);
+  EXPECT_EQ(r.rc, 0) << r.err;
+  EXPECT_NE(r.out.find("session " + session_ + ": finished, 1000 ticks (1.00 s at 1000 Hz), 2 probes, 0 dropped records"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("replay: forces bit-identical to the recording over 1000 ticks"), std::string::npos) << r.out;
+}
+
+TEST_F(ReplayCli, RecordNeverOverwrites) {
+  const Result r = run(std::string(PALPA_PALPATE) + " --seconds 0.1 --record " + session_);
+  EXPECT_EQ(r.rc, 1);
+  EXPECT_EQ(r.err, "palpa-palpate: " + session_ + ": exists; a recorder never overwrites a session\n");
+}
+
+// Probe 1's positions moved by 1 mm from the chunk that holds t = 0.5 s on:
+// the replay says the forces differ from that chunk's first tick.
+TEST_F(ReplayCli, AlteredInputIsFoundFromTheTickItChanges) {
+  const std::string altered = (dir_ / "altered.palpa").string();
+  fs::copy_file(session_, altered, fs::copy_options::overwrite_existing);
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(altered.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* st = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db,
+                               "SELECT first_tick, count, position FROM probe_chunks WHERE probe = 0 AND first_tick <= 500 "
+                               "ORDER BY first_tick DESC LIMIT 1",
+                               -1, &st, nullptr),
+            SQLITE_OK);
+  ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+  const auto first = sqlite3_column_int64(st, 0);
+  const auto count = static_cast<std::size_t>(sqlite3_column_int64(st, 1));
+  const auto* b = static_cast<const std::uint8_t*>(sqlite3_column_blob(st, 2));
+  std::vector<double> pos(3 * count);
+  palpa::record::internal::decode_column({b, static_cast<std::size_t>(sqlite3_column_bytes(st, 2))}, 3 * count, 8,
+                                         pos.data());
+  sqlite3_finalize(st);
+  for (std::size_t i = 0; i < count; ++i) pos[3 * i] += 1e-3;
+  const auto blob = palpa::record::internal::encode_column(pos.data(), pos.size(), 8, palpa::record::internal::Codec::XorFloat);
+  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE probe_chunks SET position = ? WHERE probe = 0 AND first_tick = ?", -1, &st, nullptr),
+            SQLITE_OK);
+  sqlite3_bind_blob(st, 1, blob.data(), static_cast<int>(blob.size()), SQLITE_TRANSIENT);
+  sqlite3_bind_int64(st, 2, first);
+  ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+  const Result r = run(std::string(PALPA_REPLAY) + " " + altered);
+  EXPECT_EQ(r.rc, 3) << r.out << r.err;
+  EXPECT_NE(r.out.find("replay: forces differ from tick " + std::to_string(first) + " (t = "), std::string::npos) << r.out;
+}
+
+TEST_F(ReplayCli, FramesAndVideo) {
+  const fs::path frames = dir_ / "frames";
+  const fs::path video = dir_ / "v.mp4";
+  const Result r = run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + frames.string() + " --video " +
+                    video.string() + " --size 320x240 --fps 10 --to 0.5");
+  ASSERT_EQ(r.rc, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("wrote 6 frames"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(frames / "frame_000006.png"));
+  EXPECT_FALSE(fs::exists(frames / "frame_000007.png"));
+  // An MP4 starts with its ftyp box.
+  std::ifstream in(video, std::ios::binary);
+  char head[8] = {};
+  in.read(head, 8);
+  EXPECT_EQ(std::string(head + 4, 4), "ftyp");
+  // A PNG of the frame size.
+  std::ifstream png(frames / "frame_000001.png", std::ios::binary);
+  unsigned char h[24] = {};
+  png.read(reinterpret_cast<char*>(h), 24);
+  EXPECT_EQ((h[16] << 24 | h[17] << 16 | h[18] << 8 | h[19]), 320);
+  EXPECT_EQ((h[20] << 24 | h[21] << 16 | h[22] << 8 | h[23]), 240);
+}
+
+TEST_F(ReplayCli, AssessWritesJsonAndHtml) {
+  const fs::path json = dir_ / "a.json", html = dir_ / "a.html";
+  const Result r = run(std::string(PALPA_ASSESS) + " " + session_ + " --json " + json.string() + " --html " + html.string());
+  ASSERT_EQ(r.rc, 0) << r.err;
+  std::ifstream j(json);
+  std::stringstream js;
+  js << j.rdbuf();
+  EXPECT_NE(js.str().find("\"ticks\": 1000"), std::string::npos) << js.str();
+  EXPECT_NE(js.str().find("\"probes\": 2"), std::string::npos);
+  std::ifstream h(html);
+  std::stringstream hs;
+  hs << h.rdbuf();
+  EXPECT_NE(hs.str().find("data:image/png;base64,"), std::string::npos);
+}
+
+TEST(ReplayCliErrors, Messages) {
+  struct Case {
+    std::string args;
+    int rc;
+    std::string first_line;
+  };
+  const std::string missing = (fs::temp_directory_path() / "palpa-no-such-session.palpa").string();
+  const Case cases[] = {
+      {"", 2, "palpa-replay: no session file given"},
+      {missing, 1, "palpa-replay: " + missing + ": no such file"},
+      {"s.palpa --size 10x10", 2, "palpa-replay: --size: expected WxH with 64 <= W <= 7680 and 64 <= H <= 4320, got '10x10'"},
+      {"s.palpa --fps 0", 2, "palpa-replay: --fps: expected a rate in [1, 240], got 0"},
+      {"s.palpa --overlays force,sparkles", 2,
+       "palpa-replay: --overlays: unknown overlay 'sparkles' (expected force, levels, coverage, marks, timeline)"},
+      {"s.palpa --from 2 --to 1", 2, "palpa-replay: --to must be after --from"},
+      {"s.palpa --colour red", 2, "palpa-replay: unknown option '--colour'"},
+      {"a.palpa b.palpa", 2, "palpa-replay: one session at a time, got 'b.palpa' too"},
+  };
+  for (const auto& c : cases) {
+    const Result r = run(std::string(PALPA_REPLAY) + " " + c.args);
+    EXPECT_EQ(r.rc, c.rc) << c.args;
+    // The error is the last non-empty line before the usage, or the only line.
+    const std::string first = r.err.substr(r.err.find_first_not_of('\n'), r.err.find('\n', r.err.find_first_not_of('\n')) - r.err.find_first_not_of('\n'));
+    EXPECT_EQ(first, c.first_line) << c.args;
+  }
+  const Result a = run(std::string(PALPA_ASSESS) + " " + missing);
+  EXPECT_EQ(a.rc, 1);
+  EXPECT_EQ(a.err, "palpa-assess: " + missing + ": no such file\n");
+}
+
+}  // namespace
