@@ -431,24 +431,32 @@ Recorder::Recorder(const std::filesystem::path& file, const haptics::SessionMode
   m.options = options;
   m.vertices = model.mesh->vertex_count();
 
-  // Never over an existing file: create it exclusively, empty (SQLite takes
-  // an empty file as an empty database).
-  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    if (errno == EEXIST) throw RecordError(file, "exists; a recorder never overwrites a session");
-    throw RecordError(file, std::string("cannot create (") + std::strerror(errno) + ")");
-  }
+  // Never over an existing file. The session is set up in a hidden sibling
+  // (schema, meta, mesh, status in one transaction) and linked to its name
+  // only when complete, so a file of that name is always a whole session;
+  // a writer killed during the set-up leaves at most ".NAME.creating-PID".
+  std::error_code exists_ec;
+  if (std::filesystem::exists(std::filesystem::symlink_status(file, exists_ec)))
+    throw RecordError(file, "exists; a recorder never overwrites a session");
+  const std::filesystem::path tmp =
+      file.parent_path() / ("." + file.filename().string() + ".creating-" + std::to_string(getpid()));
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) throw RecordError(file, std::string("cannot create (") + std::strerror(errno) + ")");
   ::close(fd);
 
+  auto remove_tmp = [&] {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    std::filesystem::remove(tmp.string() + "-journal", ec);
+  };
   try {
-    m.db = Db(file, SQLITE_OPEN_READWRITE);
+    m.db = Db(tmp, SQLITE_OPEN_READWRITE);
     m.db.exec("PRAGMA page_size = 16384", "cannot set up");
-    m.db.exec("PRAGMA journal_mode = WAL", "cannot set up");
-    m.db.exec("PRAGMA synchronous = NORMAL", "cannot set up");
     m.db.exec(("PRAGMA application_id = " + std::to_string(kApplicationId)).c_str(), "cannot set up");
     m.db.exec(("PRAGMA user_version = " + std::to_string(kSchemaVersion)).c_str(), "cannot set up");
     m.db.exec("BEGIN", "cannot set up");
     m.db.exec(kSchema, "cannot create the tables");
+    {
 
     // Meta: who, what, which build.
     Stmt meta(m.db, "INSERT INTO meta(key, value) VALUES (?, ?)");
@@ -504,13 +512,23 @@ Recorder::Recorder(const std::filesystem::path& file, const haptics::SessionMode
     st.bind(3, static_cast<std::int64_t>(getpid()));
     st.bind(4, host_name());
     st.run();
+    }
     m.db.exec("COMMIT", "cannot set up");
-  } catch (...) {
     m.db = Db();
-    std::error_code ec;
-    std::filesystem::remove(file, ec);
-    std::filesystem::remove(file.string() + "-wal", ec);
-    std::filesystem::remove(file.string() + "-shm", ec);
+    // The name appears only now, and never over a file made meanwhile.
+    if (::link(tmp.c_str(), file.c_str()) != 0) {
+      const int e = errno;
+      remove_tmp();
+      if (e == EEXIST) throw RecordError(file, "exists; a recorder never overwrites a session");
+      throw RecordError(file, std::string("cannot create (") + std::strerror(e) + ")");
+    }
+    remove_tmp();
+    m.db = Db(file, SQLITE_OPEN_READWRITE);
+    m.db.exec("PRAGMA journal_mode = WAL", "cannot set up");
+    m.db.exec("PRAGMA synchronous = NORMAL", "cannot set up");
+  } catch (const RecordError&) {
+    m.db = Db();
+    remove_tmp();
     throw;
   }
 
