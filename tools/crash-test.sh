@@ -6,7 +6,8 @@
 #      reported committed, its row counts never went down while it was being
 #      written, every tick's inputs are what the script made, and its forces
 #      replay bit for bit.
-#   2. palpa-palpate --record killed RUNS times at random moments: every
+#   2. palpa-palpate --record killed RUNS times at random moments (0.2 to
+#      3.2 s after its start): every
 #      file opens in palpa-replay as "interrupted" and replays bit-identical
 #      (or was killed before its file was made: the set-up is written to a
 #      hidden sibling and linked to the name only when complete).
@@ -33,8 +34,8 @@ for ((k = 1; k <= runs; k++)); do
   f="$dir/s$k.palpa"
   "$bin/palpa-palpate" --seconds 30 --probes 3 --record "$f" >/dev/null 2>&1 &
   pid=$!
-  # 50 .. 1549 ms: before the file, in the set-up, in the ticks.
-  sleep "$(awk -v r=$RANDOM 'BEGIN { printf "%.3f", 0.05 + (r % 1500) / 1000 }')"
+  # 0.2 .. 3.2 s: while the organ loads, in the set-up, in the ticks.
+  sleep "$(awk -v r=$RANDOM 'BEGIN { printf "%.3f", 0.2 + (r % 3000) / 1000 }')"
   kill -9 "$pid" 2>/dev/null || true
   wait "$pid" 2>/dev/null || true
   if [ ! -e "$f" ]; then
