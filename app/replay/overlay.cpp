@@ -104,8 +104,17 @@ void draw_text_block(cv::Mat& img, const std::vector<std::string>& lines, cv::Po
 }
 
 cv::Mat coverage_map(const assess::Coverage& coverage, const Vec3& view_dir, const Vec3& up, int size) {
-  cv::Mat img(size, size, CV_8UC3, cv::Scalar(40, 40, 40));
-  const auto& m = coverage.mesh();
+  return CoverageMap(coverage.mesh(), view_dir, up, size).draw(coverage);
+}
+
+cv::Mat CoverageMap::draw(const assess::Coverage& coverage) const {
+  cv::Mat img(size_, size_, CV_8UC3, cv::Scalar(40, 40, 40));
+  for (const Dot& d : dots_) cv::circle(img, d.at, radius_, level_colour(coverage.highest()[d.vertex]) * d.shade, cv::FILLED);
+  return img;
+}
+
+CoverageMap::CoverageMap(const mesh::SurfaceMesh& m, const Vec3& view_dir, const Vec3& up, int size)
+    : size_(size), radius_(std::max(1, size / 160)) {
   const Vec3 w = view_dir.normalized();
   const Vec3 u = up.cross(w).normalized();
   const Vec3 v = w.cross(u);
@@ -122,16 +131,13 @@ cv::Mat coverage_map(const assess::Coverage& coverage, const Vec3& view_dir, con
   std::vector<Index> order(m.vertex_count());
   std::iota(order.begin(), order.end(), Index{0});
   std::sort(order.begin(), order.end(), [&](Index a, Index b) { return m.positions[a].dot(w) < m.positions[b].dot(w); });
-  const int r = std::max(1, size / 160);
   for (Index i : order) {
     if (m.normals[i].dot(w) <= 0) continue;
     const Vec3& p = m.positions[i];
     const int x = static_cast<int>(size * (0.5 + (p.dot(u) - cu) / ext));
     const int y = static_cast<int>(size * (0.5 - (p.dot(v) - cv_) / ext));
-    const double shade = 0.55 + 0.45 * m.normals[i].dot(w);
-    cv::circle(img, {x, y}, r, level_colour(coverage.highest()[i]) * shade, cv::FILLED);
+    dots_.push_back({i, {x, y}, 0.55 + 0.45 * m.normals[i].dot(w)});
   }
-  return img;
 }
 
 }  // namespace palpa::app

@@ -7,6 +7,7 @@
 
 #include "assess/coverage.h"
 #include "core/types.h"
+#include "mesh/surface_mesh.h"
 
 #include <opencv2/core.hpp>
 
@@ -38,7 +39,23 @@ void draw_text_block(cv::Mat& img, const std::vector<std::string>& lines, cv::Po
 
 /// The coverage map (size x size pixels, BGR): vertices projected along
 /// `view_dir` (from the organ towards the eye) with `up` upwards, the
-/// nearest drawn last, grey when never covered.
+/// nearest drawn last, grey when never covered. The projection is made once.
+class CoverageMap {
+ public:
+  CoverageMap(const mesh::SurfaceMesh& mesh, const Vec3& view_dir, const Vec3& up, int size);
+  cv::Mat draw(const assess::Coverage& coverage) const;
+
+ private:
+  struct Dot {
+    Index vertex;
+    cv::Point at;
+    double shade;
+  };
+  std::vector<Dot> dots_;  // back to front
+  int size_, radius_;
+};
+
+/// CoverageMap(...).draw(coverage), once.
 cv::Mat coverage_map(const assess::Coverage& coverage, const Vec3& view_dir, const Vec3& up, int size);
 
 }  // namespace palpa::app

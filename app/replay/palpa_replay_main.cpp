@@ -226,7 +226,12 @@ int run(const Options& o) {
 
   // State the overlays follow.
   std::unique_ptr<assess::Coverage> coverage;
-  if (with_coverage) coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
+  std::unique_ptr<app::CoverageMap> coverage_map;
+  const int map_side = std::min(o.width, o.height) / 3;
+  if (with_coverage) {
+    coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
+    coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
+  }
   std::vector<std::uint32_t> episode(h.setups.size(), 0);
   std::vector<bool> was_in(h.setups.size(), false);
   std::uint32_t next_episode = 0;
@@ -238,6 +243,7 @@ int run(const Options& o) {
 
   std::size_t frames = 0;
   double next_frame = o.from;
+  double render_s = 0, overlay_s = 0, write_s = 0;  // wall time per part, s
   const auto start = Clock::now();
   const std::uint64_t replay_from = with_coverage ? 0 : from_tick;  // coverage needs every tick before the window
   auto each = [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r,
@@ -281,7 +287,10 @@ int run(const Options& o) {
     for (std::size_t j = 0; j < r.size() && j < probes.size(); ++j)
       probes[j]->set_state(haptics::to_vec(r[j].world), axis[j], haptics::to_vec(r[j].force_world), r[j].in_contact != 0,
                            j == 0);
+    const auto c0 = Clock::now();
     const render::Image img = scene.render_image();
+    const auto c1 = Clock::now();
+    render_s += std::chrono::duration<double>(c1 - c0).count();
     cv::Mat frame;
     cv::cvtColor(cv::Mat(img.height, img.width, CV_8UC3, const_cast<std::uint8_t*>(img.rgb.data())), frame,
                  cv::COLOR_RGB2BGR);
@@ -305,12 +314,14 @@ int run(const Options& o) {
       app::draw_text_block(frame, lines, {16, 28});
     }
     if (coverage) {
-      const int side = std::min(o.width, o.height) / 3;
-      cv::Mat map = app::coverage_map(*coverage, view_dir, Vec3::UnitZ(), side);
+      const int side = map_side;
+      cv::Mat map = coverage_map->draw(*coverage);
       map.copyTo(frame(cv::Rect(o.width - side - 10, 10, side, side)));
       cv::putText(frame, "coverage", {o.width - side - 4, 26}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {230, 230, 230}, 1,
                   cv::LINE_AA);
     }
+    const auto c2 = Clock::now();
+    overlay_s += std::chrono::duration<double>(c2 - c1).count();
     if (writer.isOpened()) writer.write(frame);
     if (!o.frames.empty()) {
       char name[32];
@@ -318,6 +329,7 @@ int run(const Options& o) {
       const auto path = std::filesystem::path(o.frames) / name;
       if (!cv::imwrite(path.string(), frame)) throw std::runtime_error(path.string() + ": cannot write");
     }
+    write_s += std::chrono::duration<double>(Clock::now() - c2).count();
     ++frames;
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
     progress((now - o.from) / std::max(1e-9, to - o.from), frames, wall > 0 ? (now - o.from) / wall : 0);
@@ -330,6 +342,11 @@ int run(const Options& o) {
   std::printf("wrote %zu frames%s%s%s%s in %.1f s: %.2f frames/s, %.2fx real time (%.1f s of session)\n", frames,
               o.video.empty() ? "" : " to ", o.video.c_str(), o.frames.empty() ? "" : " and to ", o.frames.c_str(), wall,
               frames / wall, covered / wall, covered);
+  if (frames > 0)
+    std::printf("per frame: render and read back %.1f ms, overlays %.1f ms, encode and write %.1f ms; the rest "
+                "(re-simulation, %llu ticks) %.1f s\n",
+                1e3 * render_s / frames, 1e3 * overlay_s / frames, 1e3 * write_s / frames,
+                static_cast<unsigned long long>(check.ticks), wall - render_s - overlay_s - write_s);
   std::printf("replay: %s\n", app::describe(check).c_str());
   return check.identical ? 0 : 3;
 }

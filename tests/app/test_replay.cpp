@@ -181,3 +181,37 @@ TEST(ReplayCliErrors, Messages) {
 }
 
 }  // namespace
+
+// Seeking: a replay from tick 900 restores the latest snapshot before it
+// (at tick 801) and replays only from there, with the same forces.
+#include "app/replay/session_job.h"
+#include "../record/record_rig.h"
+
+namespace {
+
+TEST(ReplaySession, SeeksFromTheLatestSnapshot) {
+  const auto file = palpa::record::test::temp_dir() / "seek.palpa";
+  fs::remove(file);
+  palpa::record::RecorderOptions o;
+  o.block_when_full = true;
+  o.snapshot_interval_s = 0.4;
+  palpa::record::test::Rig().record(file, 1500, o, [](auto&, auto, auto) {});
+  const palpa::app::LoadedSession s = palpa::app::load_session(file.string());
+  ASSERT_EQ(s.file.snapshots().size(), 3u);
+  palpa::app::ForceCheck check;
+  std::uint64_t first = 0, seen = 0;
+  palpa::app::replay_session(s, 900, 1500, [&](const palpa::haptics::TickRecord& t, auto, const auto&) {
+    if (seen++ == 0) first = t.tick;
+  }, check, 128);
+  EXPECT_EQ(first, 900u);
+  EXPECT_EQ(seen, 600u);
+  EXPECT_EQ(check.ticks, 1500u - 801u) << "replayed from the snapshot at tick 801";
+  EXPECT_TRUE(check.identical) << palpa::app::describe(check);
+  // From the start, in small windows: the same.
+  palpa::app::ForceCheck all;
+  palpa::app::replay_session(s, 0, 1500, nullptr, all, 100);
+  EXPECT_EQ(all.ticks, 1500u);
+  EXPECT_TRUE(all.identical) << palpa::app::describe(all);
+}
+
+}  // namespace
