@@ -553,8 +553,7 @@ tissue::DynamicRegion read_dynamic(const Reader& r, const Json& v, const std::st
       tissue::Keyframe key;
       key.time = r.non_negative(r.need(f, ip, "time_s"), child(ip, "time_s"), " of seconds");
       if (!d.keyframes.empty() && key.time < d.keyframes.back().time)
-        r.expected(child(ip, "time_s"), "keyframes in time order (a time >= " + shown(Json(d.keyframes.back().time)) + ")",
-                   f["time_s"]);
+        r.expected(child(ip, "time_s"), "keyframes in time order (a time >= the previous keyframe's)", f["time_s"]);
       key.scale = r.positive(r.need(f, ip, "scale"), child(ip, "scale"), "");
       if (const Json* x = r.find(f, "ramp_s")) key.ramp = r.non_negative(*x, child(ip, "ramp_s"), " of seconds");
       d.keyframes.push_back(key);
