@@ -7,7 +7,6 @@
 
 #include "core/types.h"
 #include "deform/shape_function.h"
-#include "mesh/surface_mesh.h"
 #include "tissue/field.h"
 #include "tissue/lesion.h"
 #include "tissue/regions.h"
@@ -156,21 +155,5 @@ std::string to_json_text(const Scenario& s, const std::filesystem::path& base_di
 void save_scenario(const Scenario& s, const std::filesystem::path& file);
 /// A human summary for `palpa scenario check`.
 std::string summary(const Scenario& s);
-
-/// The lesions a session uses and records, organ frame, m: a written centre
-/// as it is; a surface point and depth become the centre `depth` below the
-/// organ vertex nearest the point, along its inward normal; then
-/// `random_lesions.count` lesions drawn from `random_lesions.seed` with
-/// SplitMix64 (the same on every platform): a vertex uniformly among those
-/// whose weight in `region_weight` is >= 0.5 (every vertex when
-/// random_lesions.region is empty), then radius, centre depth and ratio
-/// uniformly in their ranges; they are named "random 1", "random 2", ...
-/// `region_weight`: per vertex of `organ`, the membership of
-/// random_lesions.region (tissue::region_weights); needed only when that
-/// region is set. Throws ScenarioError naming s.file and the pointer when
-/// the organ is empty or no vertex lies in the region; std::invalid_argument
-/// when region_weight does not match the organ.
-std::vector<tissue::Lesion> resolve_lesions(const Scenario& s, const mesh::SurfaceMesh& organ,
-                                            const std::vector<float>& region_weight = {});
 
 }  // namespace palpa::scenario
