@@ -263,6 +263,7 @@ OrganRef read_organ(const Reader& r, const Json& v, const std::string& ptr) {
   if (o.path == "default") {
     o.resolved = mesh::default_organ_path();
     if (!r.find(v, "unit")) o.unit = "m";
+    if (o.unit != "m") r.expected(child(ptr, "unit"), "\"m\" for the bundled organ (it is in metres)", v["unit"]);
   } else {
     o.resolved = r.existing_file(v["path"], pp);
   }
@@ -610,6 +611,53 @@ Task read_task(const Reader& r, const Json& v, const std::string& ptr) {
   return t;
 }
 
+// Finds the first key that appears twice in one object while parsing (the
+// parser keeps one of them silently) and the JSON pointer of the second.
+struct DuplicateKeys {
+  struct Frame {
+    bool object = false;
+    std::set<std::string> keys;
+    std::string key;        // object: the key being read
+    std::size_t index = 0;  // array: elements finished
+  };
+  std::vector<Frame> frames;
+  std::string pointer;  // of the first duplicate; empty: none
+
+  std::string path() const {
+    std::string p;
+    for (std::size_t i = 0; i + 1 < frames.size(); ++i)
+      p = frames[i].object ? child(p, frames[i].key) : child(p, frames[i].index);
+    return p;
+  }
+  void finished_element() {
+    if (!frames.empty() && !frames.back().object) ++frames.back().index;
+  }
+  bool operator()(int, nlohmann::detail::parse_event_t event, Json& parsed) {
+    using E = nlohmann::detail::parse_event_t;
+    switch (event) {
+      case E::object_start:
+      case E::array_start:
+        frames.push_back(Frame{event == E::object_start, {}, {}, 0});
+        break;
+      case E::object_end:
+      case E::array_end:
+        if (!frames.empty()) frames.pop_back();
+        finished_element();
+        break;
+      case E::key: {
+        Frame& f = frames.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second && pointer.empty()) pointer = child(path(), f.key);
+        break;
+      }
+      case E::value:
+        finished_element();
+        break;
+    }
+    return true;
+  }
+};
+
 // Line and column (1-based) of a byte offset.
 std::pair<std::size_t, std::size_t> line_column(const std::string& text, std::size_t byte) {
   std::size_t line = 1, col = 1;
@@ -882,13 +930,14 @@ std::string plain(double x) { return num(x).dump(); }
 // ---------------------------------------------------------------------------
 
 Scenario parse_scenario(const std::string& text, const fs::path& file) {
-  const std::string name = file.string();
+  const std::string name = file.empty() ? std::string("scenario") : file.string();
   const fs::path dir = fs::absolute(file).parent_path().lexically_normal();
   Reader r(name, dir);
 
   Json doc;
+  DuplicateKeys dup;
   try {
-    doc = Json::parse(text);
+    doc = Json::parse(text, std::ref(dup));
   } catch (const Json::parse_error& e) {
     auto [line, col] = line_column(text, e.byte == 0 ? 0 : e.byte - 1);
     r.fail("", "invalid JSON at line " + std::to_string(line) + ", column " + std::to_string(col) + ": " +
@@ -897,6 +946,7 @@ Scenario parse_scenario(const std::string& text, const fs::path& file) {
   r.object(doc, "",
            {"version", "units", "title", "description", "organ", "probe", "tissues", "base_tissue", "regions",
             "lesions", "random_lesions", "pulses", "breathing", "dynamic_regions", "task"});
+  if (!dup.pointer.empty()) r.fail(dup.pointer, "duplicate key (each key may appear once in an object)");
 
   Scenario s;
   s.file = file;
@@ -1048,7 +1098,12 @@ void save_scenario(const Scenario& s, const fs::path& file) {
   const std::string name = file.string();
   const fs::path target = fs::absolute(file).lexically_normal();
   const fs::path dir = target.parent_path();
-  const std::string text = to_json_text(s, dir);
+  std::string text;
+  try {
+    text = to_json_text(s, dir);
+  } catch (const std::exception& e) {  // e.g. a string that is not UTF-8
+    throw ScenarioError(name, "", std::string("cannot save: ") + e.what() + "; the previous file is unchanged");
+  }
   const fs::path tmp = target.string() + ".tmp";
   auto fail = [&](const std::string& step, int err, bool remove_tmp) {
     if (remove_tmp) ::unlink(tmp.c_str());

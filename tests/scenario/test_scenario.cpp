@@ -64,6 +64,8 @@ const std::vector<BadCase>& bad_cases() {
        "case.json: /organ: missing required key \"path\""},
       {"bad organ unit", [](Json& j) { j["organ"]["unit"] = "inch"; },
        "case.json: /organ/unit: expected one of m, cm, mm, got \"inch\""},
+      {"bundled organ in millimetres", [](Json& j) { j["organ"]["unit"] = "mm"; },
+       "case.json: /organ/unit: expected \"m\" for the bundled organ (it is in metres), got \"mm\""},
       {"bad sha256", [](Json& j) { j["organ"]["sha256"] = "xyz"; },
        "case.json: /organ/sha256: expected 64 hexadecimal digits, got \"xyz\""},
       {"string for a number", [](Json& j) { j["probe"]["tip_radius_mm"] = "8"; },
@@ -209,6 +211,37 @@ TEST(ScenarioParse, InvalidJsonGivesLineAndColumn) {
               "case.json: invalid JSON at line 3, column 12: syntax error while parsing value - unexpected '}'; "
               "expected '[', '{', or a literal");
   }
+}
+
+TEST(ScenarioParse, DuplicateKeysAreRefusedWithTheirPointer) {
+  // The parser would keep one of the two silently; the second one is named.
+  std::string text = valid_scenario().dump(2);
+  const std::string once = "\"modulus_ratio\": 4,";
+  const auto at = text.find(once);
+  ASSERT_NE(at, std::string::npos);
+  text.insert(at, "\"depth_mm\": 12, ");
+  try {
+    parse_scenario(text, "case.json");
+    FAIL() << "no error";
+  } catch (const ScenarioError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "case.json: /lesions/1/depth_mm: duplicate key (each key may appear once in an object)");
+  }
+  // In an array of arrays too (the index counts finished elements).
+  text = valid_scenario().dump();
+  const std::string key = "\"amplitude_mm\":1";
+  ASSERT_NE(text.find(key), std::string::npos);
+  text.replace(text.find(key), key.size(), key + "," + key);
+  EXPECT_THROW(
+      {
+        try {
+          parse_scenario(text, "case.json");
+        } catch (const ScenarioError& e) {
+          EXPECT_EQ(e.pointer(), "/pulses/0/amplitude_mm");
+          throw;
+        }
+      },
+      ScenarioError);
 }
 
 TEST(ScenarioParse, ValuesAreSiInside) {
