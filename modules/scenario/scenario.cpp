@@ -717,7 +717,7 @@ Json tissue_json(const tissue::Tissue& t, const std::string& preset_key) {
   put("relaxation_time_s", t.relaxation_time, base.relaxation_time, 1);
   put("relaxation_fraction", t.relaxation_fraction, base.relaxation_fraction, 1);
   put("stiffening_per_mm", t.stiffening, base.stiffening, 1 / kMm);
-  if (!p || t.source != base.source) o["source"] = t.source;
+  if (p ? t.source != base.source : !t.source.empty()) o["source"] = t.source;
   return o;
 }
 

@@ -137,7 +137,10 @@ inline constexpr std::uintmax_t kMaxScenarioBytes = 16u << 20;
 /// region files must exist; the organ's SHA-256 is checked when given.
 /// Throws ScenarioError.
 Scenario load_scenario(const std::filesystem::path& file);
-/// Parses scenario JSON text; `file` names it in messages and resolves relative paths.
+/// Parses scenario JSON text; `file` names it in messages and resolves
+/// relative paths. The same checks as load_scenario but the file's own
+/// (unknown and duplicate keys, types, ranges, names referred to, the organ
+/// and region files, the SHA-256). Throws ScenarioError.
 Scenario parse_scenario(const std::string& text, const std::filesystem::path& file);
 /// The JSON text of a scenario (file units: mm, kPa, N, s), 2-space indented
 /// (arrays of plain values on one line), keys in a fixed order, numbers
