@@ -9,6 +9,8 @@ PACKAGES=(
   cmake ninja-build g++ pkg-config ccache
   # core libraries
   libeigen3-dev libopenmesh-dev libvtk9-dev nlohmann-json3-dev
+  # tissue maps: PNG images (OpenCV), nearest file point (nanoflann)
+  libopencv-dev libnanoflann-dev
   # benchmark comparison (CGAL is header-only; it needs GMP/MPFR headers)
   libcgal-dev libgmp-dev libmpfr-dev
   # tests and benchmarks
