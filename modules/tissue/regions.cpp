@@ -6,6 +6,7 @@
 
 #include "tissue/internal_regions.h"
 
+#include <Eigen/Geometry>
 #include <nanoflann.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -126,6 +127,16 @@ struct FirstVtkMessage {
 };
 
 PointArray read_vtp(const std::filesystem::path& file, const std::string& array, const std::string& what) {
+  const std::string name = "'" + file.string() + "'";
+  // VTK's XML parser logs its syntax errors itself: look at the start first.
+  {
+    std::ifstream in(file, std::ios::binary);
+    std::string head(1024, '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    if (head.find("<VTKFile") == std::string::npos || head.find("PolyData") == std::string::npos)
+      refuse(what, "cannot read VTP " + name + ": not a VTK XML PolyData file");
+  }
   vtkNew<vtkXMLPolyDataReader> reader;
   FirstVtkMessage error, warning;
   vtkNew<vtkCallbackCommand> on_error, on_warning;
@@ -138,7 +149,6 @@ PointArray read_vtp(const std::filesystem::path& file, const std::string& array,
   reader->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, on_error);
   reader->SetFileName(file.c_str());
   reader->Update();
-  const std::string name = "'" + file.string() + "'";
   if (!error.text.empty()) refuse(what, "cannot read VTP " + name + ": " + error.text);
   vtkPolyData* poly = reader->GetOutput();
   if (poly == nullptr || poly->GetNumberOfPoints() == 0) refuse(what, "VTP " + name + " has no points");

@@ -605,6 +605,8 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
     std::ofstream(dir / "empty.png");
     std::ofstream(dir / "text.png") << "not a png\n";
     std::ofstream(dir / "organ.xyz") << "1 2 3\n";
+    std::ofstream(dir / "bad.vtp") << "not xml\n";
+    std::ofstream(dir / "bad.ply") << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n";
     fs::create_directories(dir / "folder.png");
     ArrayCase c;
     write_ply(dir / "a.ply", c, false);
@@ -669,6 +671,8 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
       {image(dir / "text.png"),
        "region 'picture': cannot read image '" + d + "/text.png': not an image OpenCV can decode, or empty"},
       {array(dir / "missing.vtp", "s"), "region 'paint': cannot read vertex array '" + d + "/missing.vtp': no such file"},
+      {array(dir / "bad.vtp", "s"), "region 'paint': cannot read VTP '" + d + "/bad.vtp': not a VTK XML PolyData file"},
+      {array(dir / "bad.ply", "s"), "region 'paint': PLY '" + d + "/bad.ply': the header has no end_header line"},
       {array(dir / "organ.xyz", "s"), "region 'paint': '" + d + "/organ.xyz': expected a .vtp or .ply file"},
       {array(dir / "a.vtp", "stiff"),
        "region 'paint': VTP '" + d + "/a.vtp' has no point-data array 'stiff' (it has: stiffness, label)"},
