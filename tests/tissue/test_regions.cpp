@@ -394,14 +394,23 @@ void write_vtp(const fs::path& file, const ArrayCase& c) {
 }
 
 // A PLY with a face element after the vertices (and, binary, one before).
-void write_ply(const fs::path& file, const ArrayCase& c, bool binary) {
+enum class Ply { Ascii, Little, Big };
+void write_ply(const fs::path& file, const ArrayCase& c, Ply format) {
   std::ofstream out(file, std::ios::binary);
-  out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment written by test_regions\n";
+  const bool binary = format != Ply::Ascii;
+  out << "ply\nformat "
+      << (format == Ply::Ascii ? "ascii" : format == Ply::Little ? "binary_little_endian" : "binary_big_endian")
+      << " 1.0\ncomment written by test_regions\n";
   if (binary) out << "element material 2\nproperty list uchar int ids\nproperty double k\n";
   out << "element vertex " << c.order.size()
       << "\nproperty float x\nproperty float y\nproperty double z\nproperty float stiffness\nproperty uchar label\n"
          "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
-  auto put = [&](const auto v) { out.write(reinterpret_cast<const char*>(&v), sizeof v); };
+  auto put = [&](const auto v) {
+    char b[sizeof v];
+    std::memcpy(b, &v, sizeof v);
+    if (format == Ply::Big) std::reverse(b, b + sizeof v);  // (this machine is little-endian)
+    out.write(b, sizeof v);
+  };
   if (binary) {
     put(std::uint8_t{2}), put(std::int32_t{4}), put(std::int32_t{5}), put(1.5);
     put(std::uint8_t{0}), put(2.5);
@@ -464,13 +473,15 @@ TEST(Regions, VtpArrayInAnotherVertexOrderMapsByNearestPoint) {
   expect_array_maps(c, file);
 }
 
-TEST(Regions, PlyArrayAsciiAndBinaryInAnotherVertexOrderMapsByNearestPoint) {
+TEST(Regions, PlyArrayAsciiAndBinaryBothEndiansInAnotherVertexOrderMapsByNearestPoint) {
   const ArrayCase c;
   const auto dir = test::temp_dir("regions_ply");
-  write_ply(dir / "ascii.ply", c, false);
-  write_ply(dir / "binary.ply", c, true);
+  write_ply(dir / "ascii.ply", c, Ply::Ascii);
+  write_ply(dir / "little.ply", c, Ply::Little);
+  write_ply(dir / "big.ply", c, Ply::Big);
   expect_array_maps(c, dir / "ascii.ply");
-  expect_array_maps(c, dir / "binary.ply");
+  expect_array_maps(c, dir / "little.ply");
+  expect_array_maps(c, dir / "big.ply");
 }
 
 // ---------------------------------------------------------------------------
@@ -645,6 +656,24 @@ TEST(Regions, LayerOrderMattersAndEachOrderFollowsTheRule) {
   EXPECT_FLOAT_EQ(ba.scale.back(), 2.0f);
 }
 
+TEST(Regions, TissueRegionWithAScaleHoldsThatTissueScaled) {
+  const std::vector<Tissue> tissues = {tissue("gland", 10, 0.45), tissue("tumour", 60, 0.3)};
+  Region r;
+  r.name = "hard lump";
+  r.radius = 5 * mm;
+  r.feather = 4 * mm;
+  r.tissue = "tumour";
+  r.scale = 2;
+  // Inside (w = 1), on the edge (w = 1/2), outside (w = 0).
+  const auto m = points({Vec3::Zero(), Vec3(5 * mm, 0, 0), Vec3(8 * mm, 0, 0)});
+  const TissueMap tm = evaluate_tissue_map(m, tissues, 0, {r});
+  EXPECT_EQ(tm.tissue_of, (std::vector<std::uint16_t>{1, 1, 0}));
+  EXPECT_FLOAT_EQ(tm.scale[0], 2.0f);
+  EXPECT_NEAR(tm.scale[1], (0.5 * effective(tissues[0]) + 0.5 * 2 * effective(tissues[1])) / effective(tissues[1]),
+              1e-6);
+  EXPECT_FLOAT_EQ(tm.scale[2], 1.0f);
+}
+
 // ---------------------------------------------------------------------------
 // Error messages, exactly.
 
@@ -660,7 +689,7 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
     std::ofstream(dir / "bad.ply") << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n";
     fs::create_directories(dir / "folder.png");
     ArrayCase c;
-    write_ply(dir / "a.ply", c, false);
+    write_ply(dir / "a.ply", c, Ply::Ascii);
     write_vtp(dir / "a.vtp", c);
     std::ofstream(dir / "short.ply") << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
                                         "property float z\nproperty float s\nend_header\n0 0 0 1\n1 1\n";
