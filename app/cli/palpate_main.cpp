@@ -2,6 +2,7 @@
 // virtual probes at a fixed haptic rate, printing forces and timings. It needs
 // no display and no device; it is the headless main job of Palpa.
 
+#include "app/cli/scenario_job.h"
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
 #include "haptics/session.h"
@@ -52,7 +53,8 @@ void usage() {
       "  --rate HZ            haptic rate, Hz (default 1000)\n"
       "  --depth M            maximum indentation, m (default 0.008)\n"
       "  --stiffness N_PER_M  vertex stiffness, N/m (default 200)\n"
-      "  --friction K         friction coefficient of eq. (4) (default 0.2)");
+      "  --friction K         friction coefficient of eq. (4) (default 0.2)\n"
+      "  --scenario FILE ...  run a scenario instead (palpa-palpate --scenario FILE --help for its options)");
 }
 
 bool parse(int argc, char** argv, Options& o) {
@@ -112,6 +114,9 @@ struct ScriptedProbe {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A scenario run has its own options (app/cli/scenario_job.h).
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--scenario") == 0) return palpa::app::scenario_main({argv + 1, argv + argc});
   Options o;
   if (!parse(argc, argv, o)) return 2;
 

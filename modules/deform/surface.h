@@ -77,6 +77,14 @@ struct SurfaceOptions {
 std::vector<double> drawn_displacement_limits(const mesh::SurfaceMesh& mesh, double thickness_fraction = 0.4,
                                               double curvature_fraction = 0.3);
 
+/// A tissue map as plain data: vertex i has scaled(tissues[tissue_of[i]], scale[i])
+/// (scale empty: all 1). What DeformableSurface::set_tissue_map takes.
+struct MaterialMap {
+  std::vector<Material> tissues;
+  std::vector<std::uint16_t> tissue_of;  ///< per vertex, index into tissues
+  std::vector<float> scale;              ///< per vertex modulus multiplier (> 0), or empty
+};
+
 /// Per-tick state of the whole surface: plain data the recorder can snapshot.
 struct SurfaceState {
   std::vector<VertexState> vertices;
@@ -142,6 +150,7 @@ class DeformableSurface {
   /// and finite, got 0").
   void set_tissue_map(std::vector<Material> tissues, std::span<const std::uint16_t> tissue_of,
                       std::span<const float> scale);
+  void set_tissue_map(const MaterialMap& map) { set_tissue_map(map.tissues, map.tissue_of, map.scale); }
 
   /// Drives that move the surface's rest shape with time (pulsing vessels):
   /// drive p lifts vertex vertices[j] by weights[j][p] * value_p (m), value_p

@@ -269,6 +269,8 @@ class HapticLoop {
   std::shared_ptr<const mesh::SurfaceMesh> mesh_;
   std::shared_ptr<const collision::VertexTree> tree_;
   deform::SurfaceOptions options_;
+  std::shared_ptr<const SessionModel> model_;  // when built from a model: its field and tissue map
+  const tissue::TissueField* field_of() const { return model_ ? model_->field.get() : nullptr; }
   std::unique_ptr<deform::DeformableSurface> replicas_[2];
   std::unique_ptr<LoopCore> core_;
 

@@ -119,6 +119,16 @@ Vec3 TissueField::to_organ(const Vec3& world, double t) const {
   return breathing.centre + y - (along * stretch / (1.0 + stretch)) * breathing.axis;
 }
 
+Eigen::Matrix4d TissueField::organ_to_world(double t) const {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  if (!breathing.enabled) return m;
+  const double b = breathing_value(t);
+  const Eigen::Matrix3d a = Eigen::Matrix3d::Identity() + b * breathing.scale * breathing.axis * breathing.axis.transpose();
+  m.topLeftCorner<3, 3>() = a;
+  m.topRightCorner<3, 1>() = breathing.centre - a * breathing.centre + b * breathing.translation;
+  return m;
+}
+
 Vec3 TissueField::organ_velocity(const Vec3& world, double t) const {
   if (!breathing.enabled) return Vec3::Zero();
   // d/dt of to_world at the organ point under `world`; db/dt by a central difference.

@@ -134,6 +134,8 @@ struct TissueField {
   /// Organ frame -> world at time t (breathing), and its inverse.
   Vec3 to_world(const Vec3& x, double t) const;
   Vec3 to_organ(const Vec3& world, double t) const;
+  /// to_world as a 4x4 affine matrix (for drawing the organ where it is).
+  Eigen::Matrix4d organ_to_world(double t) const;
   /// Velocity (m/s, world frame) of the organ point that is at `world` at time t.
   Vec3 organ_velocity(const Vec3& world, double t) const;
 };
