@@ -507,6 +507,10 @@ TEST(Regions, PlanarPngSampledAtPixelCentresAndBetween) {
   cv::Mat planes[] = {image(&pix8), image(&pix8), image(&pix8)};
   cv::merge(planes, 3, colour);
   ASSERT_TRUE(cv::imwrite((dir / "c8.png").string(), colour));
+  cv::Mat colour16;
+  cv::Mat planes16[] = {image(&pix16), image(&pix16), image(&pix16)};
+  cv::merge(planes16, 3, colour16);
+  ASSERT_TRUE(cv::imwrite((dir / "c16.png").string(), colour16));
 
   // 40 x 30 mm at z = 0, pixels 10 mm; vertices at pixel centres, 7 mm above
   // the plane (projection along u x v), midway between two centres, outside.
@@ -534,7 +538,8 @@ TEST(Regions, PlanarPngSampledAtPixelCentresAndBetween) {
   };
   const std::vector<Depth> depths = {{"m8.png", 255.0, [](int i, int j) { return double(pix8(i, j)); }},
                                      {"m16.png", 65535.0, [](int i, int j) { return double(pix16(i, j)); }},
-                                     {"c8.png", 255.0, [](int i, int j) { return double(pix8(i, j)); }}};
+                                     {"c8.png", 255.0, [](int i, int j) { return double(pix8(i, j)); }},
+                                     {"c16.png", 65535.0, [](int i, int j) { return double(pix16(i, j)); }}};
   for (const auto& d : depths) {
     SCOPED_TRACE(d.file);
     r.file = dir / d.file;
