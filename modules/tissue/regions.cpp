@@ -68,6 +68,14 @@ void check_vector(const std::string& what, const char* field, const Vec3& v) {
   }
 }
 
+void check_point(const std::string& what, const char* field, const Vec3& v) {
+  if (!finite(v)) {
+    std::ostringstream msg;
+    msg << field << " must be finite, got (" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+    refuse(what, msg.str());
+  }
+}
+
 // The file a region reads must exist and be a regular file.
 void check_file(const std::string& what, const std::filesystem::path& file, const char* kind) {
   std::error_code ec;
@@ -451,6 +459,7 @@ class ValueImage {
 };
 
 RegionSample sample_planar(const mesh::SurfaceMesh& mesh, const Region& r, const std::string& what) {
+  check_point(what, "origin", r.origin);
   check_vector(what, "u_axis", r.u_axis);
   check_vector(what, "v_axis", r.v_axis);
   if (r.u_axis.cross(r.v_axis).norm() <= 1e-12 * r.u_axis.norm() * r.v_axis.norm())
@@ -473,6 +482,7 @@ RegionSample sample_planar(const mesh::SurfaceMesh& mesh, const Region& r, const
 }
 
 RegionSample sample_cylindrical(const mesh::SurfaceMesh& mesh, const Region& r, const std::string& what) {
+  check_point(what, "origin", r.origin);
   check_vector(what, "axis", r.axis);
   check_vector(what, "reference", r.reference);
   check_positive(what, "height", r.height, " m");
@@ -610,12 +620,14 @@ RegionSample sample_region(const mesh::SurfaceMesh& mesh, const Region& r) {
   const double f = r.feather;
   switch (r.kind) {
     case RegionKind::Sphere: {
+      check_point(what, "centre", r.centre);
       check_positive(what, "radius", r.radius, " m");
       const Vec3 c = r.centre;
       const double R = r.radius;
       return {weights_from_distance(mesh, f, [&](const Vec3& p) { return (p - c).norm() - R; }), {}};
     }
     case RegionKind::Ellipsoid: {
+      check_point(what, "centre", r.centre);
       for (int k = 0; k < 3; ++k) check_positive(what, "each semi-axis", r.semi_axes[k], " m");
       return {weights_from_distance(mesh, f, [&](const Vec3& p) { return ellipsoid_signed_distance(p, r.centre, r.semi_axes); }),
               {}};
@@ -626,11 +638,13 @@ RegionSample sample_region(const mesh::SurfaceMesh& mesh, const Region& r) {
       return {weights_from_distance(mesh, f, [&](const Vec3& p) { return box_signed_distance(p, r.box_min, r.box_max); }), {}};
     }
     case RegionKind::HalfSpace: {
+      check_point(what, "point", r.point);
       check_vector(what, "normal", r.normal);
       const Vec3 nrm = r.normal.normalized();
       return {weights_from_distance(mesh, f, [&](const Vec3& p) { return (p - r.point).dot(nrm); }), {}};
     }
     case RegionKind::GeodesicDisk: {
+      check_point(what, "centre", r.centre);
       check_positive(what, "radius", r.radius, " m");
       const std::size_t n = mesh.vertex_count();
       std::vector<float> w(n, 0.0f);

@@ -562,6 +562,26 @@ TEST(Regions, PlanarPngSampledAtPixelCentresAndBetween) {
   }
 }
 
+TEST(Regions, PlanarPngWithSkewAxesProjectsAlongTheirNormal) {
+  const auto dir = test::temp_dir("regions_skew");
+  ASSERT_TRUE(cv::imwrite((dir / "m8.png").string(), image(&pix8)));
+  Region r;
+  r.name = "skew";
+  r.kind = RegionKind::PlanarImage;
+  r.file = dir / "m8.png";
+  r.origin = Vec3(0.01, 0.02, 0.03);
+  r.u_axis = Vec3(0.04, 0.01, 0);    // 4 pixels along u
+  r.v_axis = Vec3(0.01, 0.03, 0.01); // 3 pixels along v, not perpendicular to u
+  const Vec3 n = r.u_axis.cross(r.v_axis).normalized();
+  std::vector<Vec3> p;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 4; ++i)
+      p.push_back(r.origin + (i + 0.5) / 4 * r.u_axis + (j + 0.5) / 3 * r.v_axis + (0.01 * i - 0.02) * n);
+  const auto s = sample_region(points(p), r);
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(s.value[j * 4 + i], pix8(i, j) / 255.0, 1e-6) << i << "," << j;
+}
+
 TEST(Regions, CylindricalPngWrapsRoundTheAxis) {
   const auto dir = test::temp_dir("regions_cylinder");
   ASSERT_TRUE(cv::imwrite((dir / "m8.png").string(), image(&pix8)));
@@ -737,6 +757,11 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
   Region zero_scale;
   zero_scale.name = "soft";
   zero_scale.scale = 0;
+  Region nan_centre;
+  nan_centre.name = "lump";
+  nan_centre.centre = Vec3(0, std::nan(""), 0);
+  Region flat_image = image(dir / "text.png");
+  flat_image.v_axis = 2 * flat_image.u_axis;
   Region labels_ply = array(dir / "labels.ply", "s");
   labels_ply.label_tissues = {{1, "tumour"}};
 
@@ -747,6 +772,8 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
       {radius, "region 'lump': radius must be positive and finite, got -0.002 m"},
       {feather, "region 'lump': feather must be non-negative and finite, got -1 m"},
       {box, "region 'slab': box_max must be above box_min on every axis"},
+      {nan_centre, "region 'lump': centre must be finite, got (0, nan, 0)"},
+      {flat_image, "region 'picture': u_axis and v_axis must not be parallel"},
       {zero_scale, "region 'soft': scale must be positive and finite, got 0"},
       {map_tissue, "region 'picture': a map scales the modulus and holds no tissue (got tissue 'tumour'; label "
                    "arrays name tissues in label_tissues)"},
