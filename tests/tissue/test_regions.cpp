@@ -9,6 +9,7 @@
 #include "mesh/generate.h"
 #include "tissue/internal_regions.h"
 
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <vtkDoubleArray.h>
