@@ -513,10 +513,11 @@ RegionSample sample_vertex_array(const mesh::SurfaceMesh& mesh, const Region& r,
   const bool labels = !r.label_tissues.empty();
   if (labels)
     for (std::size_t i = 0; i < pa.values.size(); ++i)
-      if (pa.values[i] != std::round(pa.values[i]) || std::abs(pa.values[i]) > 1e9) {
+      if (pa.values[i] != std::round(pa.values[i]) || std::abs(pa.values[i]) > 16777216) {
+        // (labels travel as float32, exact up to 2^24)
         std::ostringstream msg;
         msg << "'" << r.file.string() << "': array '" << r.array << "' holds " << pa.values[i] << " at point " << i
-            << ", not an integer label";
+            << ", not an integer label of at most 16777216";
         refuse(what, msg.str());
       }
   // Each vertex takes its nearest file point's value.

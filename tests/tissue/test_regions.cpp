@@ -793,7 +793,7 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
        "region 'paint': PLY '" + d + "/a.ply': no vertex property 'stiff' (it has: stiffness, label)"},
       {array(dir / "short.ply", "s"), "region 'paint': PLY '" + d + "/short.ply': the file ends before a vertex property"},
       {array(dir / "a.ply", ""), "region 'paint': no array name given"},
-      {labels_ply, "region 'paint': '" + d + "/labels.ply': array 's' holds 2.5 at point 1, not an integer label"},
+      {labels_ply, "region 'paint': '" + d + "/labels.ply': array 's' holds 2.5 at point 1, not an integer label of at most 16777216"},
   };
   for (const auto& [r, msg] : cases) EXPECT_EQ(error_of([&] { evaluate_tissue_map(m, tissues, 0, {r}); }), msg);
   // region_weights says the same for faults of the region itself.
