@@ -11,6 +11,8 @@ PACKAGES=(
   libeigen3-dev libopenmesh-dev libvtk9-dev nlohmann-json3-dev
   # scenario files: the organ's SHA-256 (libcrypto)
   libssl-dev
+  # tissue maps: PNG images (OpenCV), nearest file point (nanoflann)
+  libopencv-dev libnanoflann-dev
   # benchmark comparison (CGAL is header-only; it needs GMP/MPFR headers)
   libcgal-dev libgmp-dev libmpfr-dev
   # tests and benchmarks
