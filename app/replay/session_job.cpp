@@ -14,7 +14,7 @@
 namespace palpa::app {
 
 LoadedSession load_session(const std::string& file) {
-  LoadedSession s{record::SessionFile::open(file)};
+  LoadedSession s(record::SessionFile::open(file));
   const auto& h = s.file.header();
   auto mesh = s.file.mesh();
   s.force_limit = h.info.force_limit;

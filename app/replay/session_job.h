@@ -22,6 +22,7 @@ namespace palpa::app {
 
 /// A session file and everything needed to re-run it.
 struct LoadedSession {
+  explicit LoadedSession(record::SessionFile f) : file(std::move(f)) {}
   record::SessionFile file;
   std::shared_ptr<const haptics::SessionModel> model;
   deform::MaterialArrays initial;
