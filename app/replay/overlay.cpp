@@ -31,9 +31,11 @@ void draw_force_strip(cv::Mat& img, const cv::Rect& area, const std::vector<std:
                       double now, double span, double limit) {
   cv::Mat roi = img(area);
   roi = roi * 0.35 + cv::Scalar(25, 25, 25) * 0.65;
-  double top = limit > 0 ? 1.25 * limit : 1.0;
+  // The scale follows the forces shown (at least a third of the limit, 0.5 N).
+  double top = std::max(0.5, limit > 0 ? limit / 3 : 0.0);
   for (const auto& f : force)
-    for (const auto& [t, v] : f) top = std::max(top, 1.05 * v);
+    for (const auto& [t, v] : f)
+      if (now - t <= span) top = std::max(top, 1.2 * v);
   const auto y_of = [&](double v) { return area.y + area.height - 1 - static_cast<int>((area.height - 2) * v / top); };
   const auto x_of = [&](double t) { return area.x + static_cast<int>((area.width - 1) * (1.0 - (now - t) / span)); };
   // Pressure bands relative to the task's force limit.
@@ -43,12 +45,18 @@ void draw_force_strip(cv::Mat& img, const cv::Rect& area, const std::vector<std:
     for (int b = 0; b < 4; ++b) {
       cv::Rect band(area.x, y_of(edges[b + 1]), area.width, std::max(1, y_of(edges[b]) - y_of(edges[b + 1])));
       band &= area;
+      if (band.area() <= 0) continue;
       cv::Mat sub = img(band);
       sub = sub * 0.6 + fill[b] * 0.4;
     }
-    cv::line(img, {area.x, y_of(limit)}, {area.x + area.width - 1, y_of(limit)}, {60, 60, 255}, 1, cv::LINE_AA);
-    cv::putText(img, cv::format("limit %.1f N", limit), {area.x + 4, y_of(limit) - 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                {90, 90, 255}, 1, cv::LINE_AA);
+    if (limit <= top) {
+      cv::line(img, {area.x, y_of(limit)}, {area.x + area.width - 1, y_of(limit)}, {60, 60, 255}, 1, cv::LINE_AA);
+      cv::putText(img, cv::format("limit %.1f N", limit), {area.x + area.width / 2, y_of(limit) - 4},
+                  cv::FONT_HERSHEY_SIMPLEX, 0.4, {90, 90, 255}, 1, cv::LINE_AA);
+    } else {
+      cv::putText(img, cv::format("limit %.1f N (above)", limit), {area.x + area.width / 2, area.y + 14},
+                  cv::FONT_HERSHEY_SIMPLEX, 0.4, {90, 90, 255}, 1, cv::LINE_AA);
+    }
   }
   for (std::size_t j = 0; j < force.size(); ++j) {
     std::vector<cv::Point> pts;
@@ -96,6 +104,7 @@ void draw_text_block(cv::Mat& img, const std::vector<std::string>& lines, cv::Po
   }
   cv::Rect r(at.x - 6, at.y - lh + 4, w + 12, lh * static_cast<int>(lines.size()) + 6);
   r &= cv::Rect(0, 0, img.cols, img.rows);
+  if (r.area() <= 0) return;
   cv::Mat sub = img(r);
   sub = sub * 0.4;
   for (std::size_t k = 0; k < lines.size(); ++k)

@@ -339,9 +339,11 @@ int run(const Options& o) {
   const double wall = std::chrono::duration<double>(Clock::now() - start).count();
   const double covered = to - o.from;
   std::fprintf(stderr, "\n");
-  std::printf("wrote %zu frames%s%s%s%s in %.1f s: %.2f frames/s, %.2fx real time (%.1f s of session)\n", frames,
-              o.video.empty() ? "" : " to ", o.video.c_str(), o.frames.empty() ? "" : " and to ", o.frames.c_str(), wall,
-              frames / wall, covered / wall, covered);
+  std::string where;
+  if (!o.video.empty()) where += " to " + o.video;
+  if (!o.frames.empty()) where += (where.empty() ? " to " : " and ") + o.frames;
+  std::printf("wrote %zu frames%s in %.1f s: %.2f frames/s, %.2fx real time (%.1f s of session)\n", frames,
+              where.c_str(), wall, frames / wall, covered / wall, covered);
   if (frames > 0)
     std::printf("per frame: render and read back %.1f ms, overlays %.1f ms, encode and write %.1f ms; the rest "
                 "(re-simulation, %llu ticks) %.1f s\n",
