@@ -194,6 +194,7 @@ struct Recorder::Impl {
   TickChunk chunk;
   std::unique_ptr<Stmt> ins_tick, ins_probe, ins_probe_nores, ins_cmd, ins_def, ins_evt, ins_snap, upd_status;
   std::int64_t command_seq = 0;
+  std::uint64_t loop_dropped = 0;  // the attached loop's record_drops at the last commit
 
   template <class Q, class T>
   bool push(Q& q, const T& v) noexcept {
@@ -374,7 +375,10 @@ void Recorder::Impl::commit(const char* state) {
   u.bind(1, std::string(state));
   u.bind(2, utc_now());
   u.bind(3, static_cast<std::int64_t>(ticks_written));
-  u.bind(4, static_cast<std::int64_t>(dropped.load()));
+  // With a live loop attached, the records its own queues lost count too.
+  haptics::HapticLoop* l = loop.load();
+  if (l) loop_dropped = l->statistics().record_drops;
+  u.bind(4, static_cast<std::int64_t>(dropped.load() + loop_dropped));
   u.bind(5, static_cast<std::int64_t>(commits.load() + 1));
   if (std::string(state) == "finished")
     u.bind(6, utc_now());
@@ -622,7 +626,16 @@ bool record_step(Recorder& r, haptics::Session& session, double t, std::span<con
   static thread_local haptics::TickRecord tr;
   tr.tick = session.tick_count();
   tr.time = t;
+  const tissue::ReactionState before = session.core().state().reactions;
   const bool due = session.tick(t, inputs, results);
+  // A guarding reaction the tick triggered is an event (value: the dynamic region).
+  const tissue::ReactionState& after = session.core().state().reactions;
+  for (std::size_t k = 0; k < after.triggered_at.size(); ++k)
+    if (after.triggered_at[k] != before.triggered_at[k]) {
+      EventRecord e = EventRecord::make(EventKind::Reaction, tr.tick, t, "guarding triggered");
+      e.value = static_cast<double>(k);
+      r.push_event(e);
+    }
   tr.model_generation = session.generation();
   tr.model_time = session.model_time();
   const std::size_t n = session.core().probe_count();

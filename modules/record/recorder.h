@@ -85,7 +85,8 @@ class Recorder {
 
   /// The writer also drains `loop`'s record queues (the loop must be built
   /// with LoopConfig::record_capacity > 0 and outlive the recorder or a
-  /// detach()). Ticks from the loop carry no results.
+  /// detach()). Ticks from the loop carry no results; the records the
+  /// loop's queues dropped (LoopStatistics::record_drops) count as dropped.
   void attach(haptics::HapticLoop& loop);
   void detach();
 
@@ -107,8 +108,9 @@ class Recorder {
 
 /// Steps `session` once at time t (s) (the haptic tick of every probe, then
 /// the deformation step when due) and records the tick with its results,
-/// the deformation step, and a snapshot every snapshot_interval_s of session
-/// time. Returns what Session::step returns. The same records a live loop
+/// the deformation step, a fault event when a probe's safety fault latches,
+/// a reaction event when the tick triggers a guarding reaction, and a
+/// snapshot every snapshot_interval_s of session time. Returns what Session::step returns. The same records a live loop
 /// makes, so LoopReplay re-runs them.
 bool record_step(Recorder& r, haptics::Session& session, double t, std::span<const haptics::ProbeTickInput> inputs,
                  std::span<haptics::ProbeTickResult> results);

@@ -4,6 +4,7 @@
 // each snapshot; dropped records counted when the writer cannot keep up.
 
 #include "record_rig.h"
+#include "tissue/field.h"
 
 #include <gtest/gtest.h>
 
@@ -203,6 +204,48 @@ TEST(Recorder, CountsDroppedRecordsWhenTheWriterFallsBehind) {
   const auto f = SessionFile::open(file);
   EXPECT_EQ(f.header().dropped, refused);
   EXPECT_EQ(f.header().ticks, 20000 - refused);
+}
+
+}  // namespace
+}  // namespace palpa::record
+
+namespace palpa::record {
+namespace {
+
+// A guarding region that reacts to 0.05 N: the press triggers it, and
+// record_step writes the reaction as an event.
+TEST(Recorder, WritesGuardingReactionsAsEvents) {
+  const auto file = test::temp_dir() / "guarding.palpa";
+  std::filesystem::remove(file);
+  const Rig rig;
+  tissue::DynamicRegion d;
+  d.region = "all";
+  d.guarding.enabled = true;
+  d.guarding.threshold = 0.05;
+  d.guarding.duration = 0.1;
+  auto field = std::make_shared<tissue::TissueField>(tissue::make_field(
+      *rig.model->mesh, 0.008, {}, {}, {}, {d}, {std::vector<float>(rig.model->mesh->vertex_count(), 1.0f)}));
+  const auto model = haptics::SessionModel::make(rig.model->mesh, {}, rig.model->config, field);
+  haptics::Session s(model, rig.initial, rig.setups);
+  RecorderOptions o;
+  o.block_when_full = true;
+  {
+    Recorder r(file, *model, rig.initial, rig.setups, Rig::info(), o);
+    std::array<haptics::ProbeTickInput, 2> in;
+    std::array<haptics::ProbeTickResult, 2> out;
+    record_apply(r, s, haptics::LoopCommand::of(haptics::LoopCommandKind::Enable, 0), 0);
+    for (std::uint64_t n = 0; n < 300; ++n) {
+      for (std::size_t j = 0; j < 2; ++j) in[j] = test::input(j, n);
+      record_step(r, s, static_cast<double>(n) * 1e-3, in, out);
+    }
+    r.finish();
+  }
+  const auto f = SessionFile::open(file);
+  std::size_t reactions = 0;
+  for (const auto& e : f.events()) reactions += e.kind == EventKind::Reaction;
+  EXPECT_GE(reactions, 1u);
+  EXPECT_EQ(f.events().front().value, 0.0);
+  EXPECT_STREQ(f.events().front().text, "guarding triggered");
 }
 
 }  // namespace
