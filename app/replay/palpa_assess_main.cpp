@@ -4,6 +4,7 @@
 // verdict. Uses the results stored with each tick; a session recorded
 // without them is replayed first.
 
+#include "app/replay/export.h"
 #include "app/replay/overlay.h"
 #include "app/replay/session_job.h"
 #include "assess/assess.h"
@@ -21,9 +22,12 @@ namespace {
 using namespace palpa;
 
 const char* kUsage =
-    "usage: palpa-assess SESSION [--json OUT.json] [--html OUT.html]\n"
+    "usage: palpa-assess SESSION [--json OUT.json] [--html OUT.html] [--csv TICKS.csv] [--vtp ORGAN.vtp]\n"
+    "                    [--markups OUT.mrk.json]\n"
     "  Assesses a recorded session (docs/ASSESSMENT.md) and prints the verdict;\n"
-    "  --json writes the numbers, --html one self-contained report page.\n";
+    "  --json writes the numbers, --html one self-contained report page; exports:\n"
+    "  --csv the ticks, --vtp the organ with coverage and peak-force arrays (ParaView,\n"
+    "  Slicer), --markups the lesions and marks as Slicer markups.\n";
 
 // Writes atomically: a sibling file, then a rename over `file`.
 void write_file(const std::string& file, const std::string& text) {
@@ -48,7 +52,7 @@ void write_file(const std::string& file, const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string session, json, html;
+  std::string session, json, html, csv, vtp, markups;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -65,6 +69,12 @@ int main(int argc, char** argv) {
       json = value();
     } else if (a == "--html") {
       html = value();
+    } else if (a == "--csv") {
+      csv = value();
+    } else if (a == "--vtp") {
+      vtp = value();
+    } else if (a == "--markups") {
+      markups = value();
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "palpa-assess: unknown option '%s'\n%s", a.c_str(), kUsage);
       return 2;
@@ -130,6 +140,9 @@ int main(int argc, char** argv) {
       std::printf("  %s: %s%s (max contrast %.0f%%)\n", l.name.c_str(), l.found ? "found" : "missed, ",
                   l.found ? "" : l.missed.c_str(), 100 * l.max_contrast);
     if (!json.empty()) write_file(json, assess::to_json(r));
+    if (!csv.empty()) app::write_ticks_csv(s, csv);
+    if (!vtp.empty()) app::write_coverage_vtp(a.coverage(), vtp);
+    if (!markups.empty()) write_file(markups, app::markups_json(r));
     if (!html.empty()) {
       std::vector<std::uint8_t> png;
       cv::imencode(".png", app::coverage_map(a.coverage(), Vec3(0, -std::sin(0.61), std::cos(0.61)), Vec3::UnitZ(), 480),

@@ -84,7 +84,7 @@ void Assessor::add(const haptics::TickRecord& tick, std::span<const haptics::Pro
     any_contact = true;
     const Vec3 cp = haptics::to_vec(p.contact_point);
     if (!track.in_contact) track.episode = m.next_episode++;
-    const Level level = m.coverage.add(cp, p.depth, track.episode);
+    const Level level = m.coverage.add(cp, p.depth, track.episode, f);
     r.level_time[static_cast<std::size_t>(level)] += dt;
     if (track.in_contact) r.path_length += (cp - track.last_point).norm();
     track.in_contact = true;

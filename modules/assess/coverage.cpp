@@ -42,6 +42,7 @@ Coverage::Coverage(std::shared_ptr<const mesh::SurfaceMesh> mesh, double tip_rad
     for (Index v : t) area_[v] += a / 3.0;
   }
   highest_.assign(n, Level::None);
+  peak_force_.assign(n, 0.0);
   mask_.assign(n, 0);
   episodes_.assign(n, 0);
   last_episode_.assign(n, ~0u);
@@ -54,7 +55,7 @@ Level Coverage::level_at(const Vec3& point, double depth) const {
   return level_of(depth, thickness_[nearest(point)], true);
 }
 
-Level Coverage::add(const Vec3& point, double depth, std::uint32_t episode) {
+Level Coverage::add(const Vec3& point, double depth, std::uint32_t episode, double force) {
   const Index start = nearest(point);
   const Level level = level_of(depth, thickness_[start], true);
   if (level == Level::None) return level;
@@ -77,6 +78,7 @@ Level Coverage::add(const Vec3& point, double depth, std::uint32_t episode) {
     if (inside) {
       mask_[v] |= static_cast<std::uint8_t>(1u << static_cast<int>(level));
       highest_[v] = std::max(highest_[v], level);
+      peak_force_[v] = std::max(peak_force_[v], force);
       if (last_episode_[v] != episode) {
         last_episode_[v] = episode;
         if (episodes_[v] < 255) ++episodes_[v];

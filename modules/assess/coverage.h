@@ -43,9 +43,10 @@ class Coverage {
            std::shared_ptr<const collision::VertexTree> tree = nullptr);
 
   /// One probe's contact at `point` (organ frame, m) with indentation
-  /// `depth` (m). Returns its level. `episode` numbers contact episodes
-  /// (a new one each time a probe comes into contact) for revisits.
-  Level add(const Vec3& point, double depth, std::uint32_t episode);
+  /// `depth` (m) and force `force` (N, |F|). Returns its level. `episode`
+  /// numbers contact episodes (a new one each time a probe comes into
+  /// contact) for revisits.
+  Level add(const Vec3& point, double depth, std::uint32_t episode, double force = 0);
 
   /// The level of the contact at `point` without adding it.
   Level level_at(const Vec3& point, double depth) const;
@@ -62,12 +63,14 @@ class Coverage {
   /// Per vertex: distinct contact episodes that covered it (capped at 255).
   const std::vector<std::uint8_t>& episodes() const { return episodes_; }
   const std::vector<double>& thickness() const { return thickness_; }
+  /// Per vertex: the largest force (N) of a contact that covered it.
+  const std::vector<double>& peak_force() const { return peak_force_; }
 
  private:
   std::shared_ptr<const mesh::SurfaceMesh> mesh_;
   std::shared_ptr<const collision::VertexTree> tree_;
   double tip_radius_;
-  std::vector<double> thickness_, area_;
+  std::vector<double> thickness_, area_, peak_force_;
   std::vector<Level> highest_;
   std::vector<std::uint8_t> mask_, episodes_;
   std::vector<std::uint32_t> last_episode_;

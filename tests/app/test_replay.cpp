@@ -135,6 +135,30 @@ TEST_F(ReplayCli, FramesAndVideo) {
   EXPECT_EQ((h[20] << 24 | h[21] << 16 | h[22] << 8 | h[23]), 240);
 }
 
+TEST_F(ReplayCli, AssessExportsTicksOrganAndMarkups) {
+  const fs::path csv = dir_ / "t.csv", vtp = dir_ / "o.vtp", mrk = dir_ / "m.mrk.json";
+  const Result r = run(std::string(PALPA_ASSESS) + " " + session_ + " --csv " + csv.string() + " --vtp " + vtp.string() +
+                       " --markups " + mrk.string());
+  ASSERT_EQ(r.rc, 0) << r.err;
+  std::ifstream c(csv);
+  std::string line;
+  std::size_t lines = 0;
+  std::getline(c, line);
+  EXPECT_EQ(line.rfind("tick,time_s,probe,position_x_m", 0), 0u);
+  while (std::getline(c, line)) ++lines;
+  EXPECT_EQ(lines, 2000u);  // 1000 ticks x 2 probes
+  std::ifstream v(vtp);
+  std::stringstream vs;
+  vs << v.rdbuf();
+  EXPECT_NE(vs.str().find("<VTKFile type=\"PolyData\""), std::string::npos);
+  EXPECT_NE(vs.str().find("Name=\"coverage_level\""), std::string::npos);
+  EXPECT_NE(vs.str().find("Name=\"peak_force_n\""), std::string::npos);
+  std::ifstream m(mrk);
+  std::stringstream ms;
+  ms << m.rdbuf();
+  EXPECT_NE(ms.str().find("\"name\": \"marks\""), std::string::npos);
+}
+
 TEST_F(ReplayCli, AssessWritesJsonAndHtml) {
   const fs::path json = dir_ / "a.json", html = dir_ / "a.html";
   const Result r = run(std::string(PALPA_ASSESS) + " " + session_ + " --json " + json.string() + " --html " + html.string());
