@@ -228,10 +228,10 @@ int run(const Options& o) {
   std::unique_ptr<assess::Coverage> coverage;
   std::unique_ptr<app::CoverageMap> coverage_map;
   const int map_side = std::min(o.width, o.height) / 3;
-  if (with_coverage) {
+  // The levels need the thickness the coverage computes; the map needs every tick.
+  if (with_coverage || o.overlays.count("levels"))
     coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
-    coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
-  }
+  if (with_coverage) coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
   std::vector<std::uint32_t> episode(h.setups.size(), 0);
   std::vector<bool> was_in(h.setups.size(), false);
   std::uint32_t next_episode = 0;
@@ -254,7 +254,7 @@ int run(const Options& o) {
       const double f = haptics::to_vec(r[j].force_world).norm();
       over = over || (s.force_limit > 0 && f > s.force_limit);
       if (r[j].in_contact) axis[j] = haptics::to_vec(r[j].contact_normal);
-      if (coverage && r[j].in_contact && r[j].depth > 0) {
+      if (coverage_map && r[j].in_contact && r[j].depth > 0) {
         if (!was_in[j]) episode[j] = next_episode++;
         coverage->add(haptics::to_vec(r[j].contact_point), r[j].depth, episode[j]);
       }
@@ -313,7 +313,7 @@ int run(const Options& o) {
       }
       app::draw_text_block(frame, lines, {16, 28});
     }
-    if (coverage) {
+    if (coverage_map) {
       const int side = map_side;
       cv::Mat map = coverage_map->draw(*coverage);
       map.copyTo(frame(cv::Rect(o.width - side - 10, 10, side, side)));
