@@ -59,6 +59,10 @@ class ReplayCli : public ::testing::Test {
     ASSERT_EQ(r.rc, 0) << r.err;
     ASSERT_NE(r.out.find("bytes per probe-tick"), std::string::npos) << r.out;
   }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
   static inline fs::path dir_;
   static inline std::string session_;
 };

@@ -18,10 +18,24 @@
 
 namespace palpa::record::test {
 
+/// A folder of this test process, removed when the process exits normally
+/// (a forked child that is killed or calls _exit leaves it to its parent).
 inline std::filesystem::path temp_dir() {
-  auto d = std::filesystem::temp_directory_path() / ("palpa-record-test-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(d);
-  return d;
+  struct Dir {
+    std::filesystem::path path;
+    pid_t owner;
+    Dir() : path(std::filesystem::temp_directory_path() / ("palpa-record-test-" + std::to_string(::getpid()))),
+            owner(::getpid()) {
+      std::filesystem::create_directories(path);
+    }
+    ~Dir() {
+      std::error_code ec;
+      if (::getpid() == owner) std::filesystem::remove_all(path, ec);
+    }
+  };
+  static Dir dir;
+  std::filesystem::create_directories(dir.path);
+  return dir.path;
 }
 
 inline haptics::Triple probe_position(std::size_t slot, std::uint64_t tick) {
