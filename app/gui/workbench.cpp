@@ -2,8 +2,6 @@
 
 #include "app/gui/workbench.h"
 
-#include "mesh/io.h"
-
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
