@@ -481,3 +481,36 @@ TEST(DynamicFeel, GuardingStiffensForItsDurationThenReleases) {
 
 }  // namespace
 }  // namespace palpa::haptics
+
+namespace palpa::haptics {
+namespace {
+
+TEST(LesionFeel, ContrastTableThroughTheTick) {
+  // docs/TISSUE.md's table: a 6 mm sphere, rho = 4, pressed 6 mm with an 8 mm
+  // tip, its top at increasing depths; felt force with / without - 1.
+  const tissue::Tissue t = soft();
+  const deform::Material m = tissue::hertz_material(t, kTip);
+  const double d = 0.006, a = 0.006;
+  const auto plain = model_of(plane(101));
+  const double f0 = press(plain, m, 0, 0, {d})[0];
+  std::printf("%28s %18s %14s\n", "top of lesion below [mm]", "contrast (tick)", "formula");
+  for (double top : {0.006, 0.008, 0.010, 0.012, 0.015, 0.018, 0.020, 0.023, 0.025}) {
+    tissue::Lesion les;
+    les.centre = Vec3(0, 0, -(top + a));
+    les.semi_axes = Vec3::Constant(a);
+    les.modulus_ratio = 4;
+    tissue::TissueField field;
+    field.lesion_count = 1;
+    field.lesions[0] = tissue::lesion_data(les);
+    const double f1 = press(model_of(plane(101), field), m, 0, 0, {d})[0];
+    const double c = f1 / f0 - 1;
+    const double ac2 = kTip * d, reach = tissue::kLesionReach * std::sqrt(ac2);
+    const double gap = std::max(0.0, top - d);
+    const double formula = 3.0 * (a * a / (a * a + ac2)) * tissue::lesion_falloff(gap / reach);
+    std::printf("%28.0f %18.3f %14.3f\n", top * 1e3, c, formula);
+    EXPECT_NEAR(c, formula, 1e-3 * (1 + formula)) << top;
+  }
+}
+
+}  // namespace
+}  // namespace palpa::haptics
