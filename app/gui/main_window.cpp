@@ -452,6 +452,12 @@ void MainWindow::build_menus() {
   force_arrows_action_->setChecked(true);
   force_arrows_action_->setToolTip("Draw the force on each probe as an arrow (off: the picture shows no force)");
   connect(force_arrows_action_, &QAction::toggled, this, [this] { save_settings(); });
+  // Not kept between runs: a trainee's session never starts revealed.
+  reveal_action_ = view->addAction("&Reveal lesions (debriefing)");
+  reveal_action_->setObjectName("revealLesions");
+  reveal_action_->setCheckable(true);
+  reveal_action_->setToolTip("Also draw the scenario's hidden and after-exam lesions (for the debriefing)");
+  connect(reveal_action_, &QAction::toggled, this, [this] { rebuild_lesion_views(); });
 
   QMenu* sim = menuBar()->addMenu("&Simulation");
   sim->addAction("&Reset", this, &MainWindow::reset)->setShortcut(QKeySequence("Ctrl+R"));
@@ -626,18 +632,7 @@ void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
   view_ = std::move(view);
   vtk_->renderer->AddActor(view_->actor());
   frame_time_ = workbench_.loop_time();
-  for (auto& lv : lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
-  lesion_views_.clear();
-  if (const scenario::Resolved* sc = workbench_.scenario()) {
-    // Only shown lesions are drawn: hidden ones are found by feel, and the
-    // after-exam ones wait for the debriefing.
-    for (const tissue::Lesion& l : sc->lesions) {
-      if (l.visibility != tissue::Visibility::Shown) continue;
-      lesion_views_.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
-      lesion_views_.back()->add_to(vtk_->inclusions);
-    }
-  }
-  apply_frame_transform();
+  rebuild_lesion_views();
   if (workbench_.probes().empty()) {
     try {
       workbench_.add_probe();
@@ -805,6 +800,7 @@ void MainWindow::apply_material() {
   if (const tissue::Preset* p = preset_at(preset_box_); p && !same_values(p->tissue, m.tissue)) {
     const QSignalBlocker block(preset_box_);
     preset_box_->setCurrentIndex(0);
+    preset_box_->setToolTip("A tissue of its own (no preset)");
     m.tissue.name = "custom";
     m.tissue.source.clear();
   }
@@ -1234,6 +1230,23 @@ void MainWindow::advance() {
     rate_window_start_ = now;
   }
 }
+
+// Only shown lesions are drawn: hidden ones are found by feel, and the
+// after-exam ones wait for the debriefing (View > Reveal lesions draws both).
+void MainWindow::rebuild_lesion_views() {
+  for (auto& lv : lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
+  lesion_views_.clear();
+  if (const scenario::Resolved* sc = workbench_.scenario()) {
+    for (const tissue::Lesion& l : sc->lesions) {
+      if (l.visibility != tissue::Visibility::Shown && !reveal_action_->isChecked()) continue;
+      lesion_views_.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
+      lesion_views_.back()->add_to(vtk_->inclusions);
+    }
+  }
+  apply_frame_transform();
+}
+
+std::size_t MainWindow::lesions_drawn() const { return lesion_views_.size(); }
 
 // A breathing organ (and its shown lesions) drawn where it is at the loop's
 // time; the same time maps picks back into the organ frame.

@@ -74,6 +74,8 @@ class MainWindow : public QMainWindow {
   void restore_tissue_map();
   /// The Task dock's text (empty without a scenario).
   QString task_text() const;
+  /// Lesions drawn now (shown ones; every one with View > Reveal lesions).
+  std::size_t lesions_drawn() const;
   /// Opens the bundled default organ.
   void open_default_organ();
   /// Writes the viewport to a PNG; on failure shows the error.
@@ -133,6 +135,7 @@ class MainWindow : public QMainWindow {
   void show_new_organ(std::unique_ptr<render::SurfaceView> view);
   void show_task();
   void apply_frame_transform();
+  void rebuild_lesion_views();
   void apply_preset();
   void sync_material_panel();
   void update_scenario_note();
@@ -203,6 +206,7 @@ class MainWindow : public QMainWindow {
   QMenu* recent_menu_ = nullptr;
   QAction* hold_action_ = nullptr;
   QAction* force_arrows_action_ = nullptr;
+  QAction* reveal_action_ = nullptr;
   QStringList recent_;
 
   // Gesture state: pressing with a probe, where the press started.

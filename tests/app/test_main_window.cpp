@@ -547,6 +547,7 @@ TEST_F(MainWindowTest, HiddenLesionsAreNeverDrawnAndShownOnesAre) {
   };
   ASSERT_TRUE(w->open_file(QString::fromStdString(with_hidden.string()))) << w->error_text().toStdString();
   ASSERT_EQ(w->workbench().field()->lesion_count, 2u);
+  EXPECT_EQ(w->lesions_drawn(), 0u);
   const QImage hidden_rest = settled_frame(*w);
   press();
   const QImage hidden_pressed = settled_frame(*w);
@@ -560,8 +561,16 @@ TEST_F(MainWindowTest, HiddenLesionsAreNeverDrawnAndShownOnesAre) {
   EXPECT_FALSE(hidden_pressed == hidden_rest) << "the press is not drawn";
   // Shown lesions are drawn (translucent, over the organ).
   ASSERT_TRUE(w->open_file(QString::fromStdString(shown.string()))) << w->error_text().toStdString();
+  EXPECT_EQ(w->lesions_drawn(), 2u);
   const QImage shown_rest = settled_frame(*w);
   EXPECT_FALSE(shown_rest == bare_rest) << "a shown lesion is not drawn";
+  // The debriefing reveals hidden ones.
+  ASSERT_TRUE(w->open_file(QString::fromStdString(with_hidden.string())));
+  EXPECT_EQ(w->lesions_drawn(), 0u);
+  w->findChild<QAction*>("revealLesions")->setChecked(true);
+  EXPECT_EQ(w->lesions_drawn(), 2u);
+  w->findChild<QAction*>("revealLesions")->setChecked(false);
+  EXPECT_EQ(w->lesions_drawn(), 0u);
   w->findChild<QAction*>("showForceArrows")->setChecked(true);
   if (const char* dir = std::getenv("PALPA_TEST_SCREENSHOTS"); dir && *dir)
     w->grab().save(QString(dir) + "/workbench_shown_lesions.png");
