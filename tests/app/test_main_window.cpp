@@ -606,7 +606,7 @@ TEST_F(MainWindowTest, ABreathingOrganIsDrawnWhereItIsAndPicksStayOnIt) {
   const auto& mesh = *w->workbench().organ().mesh;
   double nearest = 1e9;
   for (const Vec3& x : mesh.positions) nearest = std::min(nearest, (x - probe->anchor).norm());
-  EXPECT_LT(nearest, 0.02) << "the anchor is not on the organ";
+  EXPECT_LT(nearest, 0.01) << "the anchor is not on the organ";
   EXPECT_TRUE(wait_until([&] { return w->workbench().selected_probe()->output.in_contact; }));
   QTest::mouseRelease(vp, Qt::LeftButton, Qt::NoModifier, *p + QPoint(0, 60));
 }
