@@ -6,6 +6,7 @@
 
 #include "app/gui/main_window.h"
 #include "app/render/render_job.h"
+#include "app/scenario/scenario_check.h"
 
 #include <QApplication>
 #include <QFileInfo>
@@ -57,10 +58,13 @@ bool is_scenario(const std::string& path) { return QFileInfo(QString::fromStdStr
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   if (!args.empty() && args[0] == "render") return run_headless({args.begin() + 1, args.end()}, "palpa-render.png");
+  if (!args.empty() && args[0] == "scenario")
+    return palpa::app::run_scenario_command({args.begin() + 1, args.end()}, "palpa scenario", std::cout, std::cerr);
   if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
     std::cout << "usage: palpa              the workbench window on the default organ\n"
                  "       palpa FILE         the workbench on FILE: an organ mesh, or a scenario (.json) it runs\n"
                  "       palpa render ...   render to PNG with no display (palpa render --help)\n"
+                 "       palpa scenario check FILE   validate a scenario file and print its summary\n"
                  "With no display, palpa palpates the default organ headless and writes palpa-headless.png\n"
                  "(options as for palpa render); palpa FILE.json then runs the scenario as\n"
                  "palpa render --scenario FILE.json would, palpa MESH palpates that organ.\n";
