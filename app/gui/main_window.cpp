@@ -450,13 +450,15 @@ void MainWindow::build_menus() {
   force_arrows_action_->setObjectName("showForceArrows");
   force_arrows_action_->setCheckable(true);
   force_arrows_action_->setChecked(true);
-  force_arrows_action_->setToolTip("Draw the force on each probe as an arrow (off: the picture shows no force)");
+  force_arrows_action_->setToolTip("Draw the force on each probe as an arrow (a scenario's picture shows none "
+                                   "unless its lesions are revealed)");
   connect(force_arrows_action_, &QAction::toggled, this, [this] { save_settings(); });
   // Not kept between runs: a trainee's session never starts revealed.
   reveal_action_ = view->addAction("&Reveal lesions (debriefing)");
   reveal_action_->setObjectName("revealLesions");
   reveal_action_->setCheckable(true);
-  reveal_action_->setToolTip("Also draw the scenario's hidden and after-exam lesions (for the debriefing)");
+  reveal_action_->setToolTip("Also draw the scenario's hidden and after-exam lesions and the force arrows "
+                             "(for the debriefing)");
   connect(reveal_action_, &QAction::toggled, this, [this] { rebuild_lesion_views(); });
 
   QMenu* sim = menuBar()->addMenu("&Simulation");
@@ -1232,7 +1234,8 @@ void MainWindow::advance() {
 }
 
 // Only shown lesions are drawn: hidden ones are found by feel, and the
-// after-exam ones wait for the debriefing (View > Reveal lesions draws both).
+// after-exam ones wait for the debriefing (View > Reveal lesions draws both,
+// and the force arrows).
 void MainWindow::rebuild_lesion_views() {
   for (auto& lv : lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
   lesion_views_.clear();
@@ -1297,9 +1300,11 @@ void MainWindow::sync_probe_views() {
     pv->set_visible(p.placed);
     // Mouse probes point along their press normal; devices along the contact's force.
     const Vec3 axis = p.host_fed || p.output.force.norm() == 0 ? p.normal : Vec3(p.output.force.normalized());
-    // With the arrows off the picture shows no force at all (a trainee
-    // feeling for a hidden lesion sees the same picture with or without it).
-    const Vec3 arrow = force_arrows_action_->isChecked() ? p.output.force : Vec3::Zero();
+    // A scenario's picture shows no force (an arrow's length would give its
+    // hidden lesions away: the trainee finds them by feel) unless revealed,
+    // as palpa render --scenario does; an organ's follows View > force arrows.
+    const bool arrows = workbench_.has_scenario() ? reveal_action_->isChecked() : force_arrows_action_->isChecked();
+    const Vec3 arrow = arrows ? p.output.force : Vec3::Zero();
     if (p.placed) pv->set_state(p.tip, axis, arrow, p.output.in_contact, p.id == workbench_.selected_id());
   }
 }

@@ -531,9 +531,9 @@ TEST_F(MainWindowTest, HiddenLesionsAreNeverDrawnAndShownOnesAre) {
   const auto shown = scenario_copy("breast_two_nodules.json", shown_dir, [](scenario::Scenario& s) {
     for (auto& l : s.lesions) l.lesion.visibility = tissue::Visibility::Shown;
   });
-  // At rest, and under the same press over nodule A (with the force arrow
-  // off: the force differs, that is how the lesion is felt).
-  w->findChild<QAction*>("showForceArrows")->setChecked(false);
+  // At rest, and under the same press over nodule A (the force differs,
+  // that is how the lesion is felt, so a scenario's picture shows no force
+  // arrow unless revealed).
   const auto press = [&] {
     const auto& mesh = *w->workbench().organ().mesh;
     const Vec3 centre = w->workbench().scenario()->scenario.lesions.empty()
@@ -569,8 +569,12 @@ TEST_F(MainWindowTest, HiddenLesionsAreNeverDrawnAndShownOnesAre) {
   EXPECT_EQ(w->lesions_drawn(), 0u);
   w->findChild<QAction*>("revealLesions")->setChecked(true);
   EXPECT_EQ(w->lesions_drawn(), 2u);
+  press();
+  const QImage revealed_pressed = settled_frame(*w);
+  EXPECT_FALSE(revealed_pressed == hidden_pressed) << "revealed: the lesions and the force arrow are drawn";
   w->findChild<QAction*>("revealLesions")->setChecked(false);
   EXPECT_EQ(w->lesions_drawn(), 0u);
+  EXPECT_TRUE(settled_frame(*w) == hidden_pressed) << "hidden again: the same picture as before";
   w->findChild<QAction*>("showForceArrows")->setChecked(true);
   if (const char* dir = std::getenv("PALPA_TEST_SCREENSHOTS"); dir && *dir)
     w->grab().save(QString(dir) + "/workbench_shown_lesions.png");
