@@ -29,10 +29,10 @@ PALPA_CRASH_KILLS="$runs" "$bin/test_record" --gtest_filter='Crash.*' --gtest_br
 
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
-ok=0 unmade=0 bad=0
+ok=0 unmade=0 finished=0 bad=0
 for ((k = 1; k <= runs; k++)); do
   f="$dir/s$k.palpa"
-  "$bin/palpa-palpate" --seconds 30 --probes 3 --record "$f" >/dev/null 2>&1 &
+  "$bin/palpa-palpate" --seconds 600 --probes 3 --record "$f" >/dev/null 2>&1 &
   pid=$!
   # 0.2 .. 3.2 s: while the organ loads, in the set-up, in the ticks.
   sleep "$(awk -v r=$RANDOM 'BEGIN { printf "%.3f", 0.2 + (r % 3000) / 1000 }')"
@@ -45,6 +45,8 @@ for ((k = 1; k <= runs; k++)); do
   out=$("$bin/palpa-replay" "$f" 2>&1) && rc=0 || rc=$?
   if grep -q ": interrupted, " <<<"$out" && grep -q "forces bit-identical" <<<"$out" && [ "$rc" -eq 0 ]; then
     ok=$((ok + 1))
+  elif grep -q ": finished, " <<<"$out" && grep -q "forces bit-identical" <<<"$out" && [ "$rc" -eq 0 ]; then
+    finished=$((finished + 1))  # it finished before the kill (a fast machine)
   elif grep -q "nothing to replay" <<<"$out" && [ "$rc" -eq 0 ]; then
     ok=$((ok + 1))
   else
@@ -53,5 +55,5 @@ for ((k = 1; k <= runs; k++)); do
   fi
   rm -f "$f" "$f-wal" "$f-shm" "$dir"/.s$k.palpa.creating-*
 done
-echo "crash-test: palpa-palpate, $runs kills: $ok files interrupted and bit-identical on replay, $unmade killed before the session file was made, $bad bad"
+echo "crash-test: palpa-palpate, $runs kills: $ok files interrupted and bit-identical on replay, $unmade killed before the session file was made, $finished finished before the kill, $bad bad"
 [ "$bad" -eq 0 ]
