@@ -18,12 +18,14 @@ using namespace palpa;
 
 constexpr const char* kUsage =
     "usage: palpa-prep IN OUT [--unit U] [--edge-mm L | --probe-radius-mm R] [--report FILE.json]\n"
-    "                  [--feature-angle DEG] [--refine-rounds N] [--no-cache] [--cache-dir DIR] [--quiet]\n"
+    "                  [--fit-rounds N] [--feature-angle DEG] [--refine-rounds N] [--no-cache] [--cache-dir DIR] [--quiet]\n"
     "  IN                 any mesh Palpa reads (.obj .stl .ply .off .vtk .vtp .trian)\n"
     "  OUT                the prepared mesh, in metres (.ply .obj .stl); load it with unit 1\n"
     "  --unit U           file unit of IN: m, cm, mm, auto (default: guessed from the size) or metres per unit (1e-3)\n"
     "  --edge-mm L        target edge length, mm\n"
     "  --probe-radius-mm R  probe tip radius, mm (default 8); the edge is R/4, at most 1/40 of the organ's diagonal\n"
+    "  --fit-rounds N     while the Hausdorff or volume target is missed, shorten the edge by 3/4 and remesh,\n"
+    "                     at most N times (default 3; never past 400000 triangles; 0: keep the edge)\n"
     "  --feature-angle DEG  edges whose faces turn by more than DEG stay sharp creases (default 0: none)\n"
     "  --refine-rounds N  rounds of local refinement where a feature is thinner than the edge (default %d;\n"
     "                     each refines with 0.6 x the previous edge, at the cost of a less uniform edge)\n"
@@ -90,6 +92,11 @@ int main(int argc, char** argv) {
       if (!value(v) || (v != "0" && !parse_positive(v, opt.feature_angle_deg)) || opt.feature_angle_deg > 180)
         return usage_error("--feature-angle needs an angle in degrees from 0 to 180");
       if (v == "0") opt.feature_angle_deg = 0;
+    } else if (a == "--fit-rounds") {
+      double n = 0;
+      if (!value(v) || (v != "0" && !parse_positive(v, n)) || n > 10 || n != std::floor(n))
+        return usage_error("--fit-rounds needs a whole number from 0 to 10");
+      opt.fit_rounds = static_cast<int>(n);
     } else if (a == "--refine-rounds") {
       double n = 0;
       if (!value(v) || (v != "0" && !parse_positive(v, n)) || n > 10 || n != std::floor(n))

@@ -78,7 +78,8 @@ std::string cache_key(const std::filesystem::path& path, const PrepOptions& o) {
   params << "palpa.prep/1 ext=" << path.extension().string() << " unit=" << o.unit_m << " edge=" << o.edge_m
          << " probe=" << o.probe_radius_m << " speck=" << o.speck_area_fraction
          << " hole=" << o.max_hole_area_fraction << " it=" << o.remesh_iterations << " relax=" << o.relaxation_steps
-         << " refine=" << o.refine_rounds << " feature=" << o.feature_angle_deg;
+         << " refine=" << o.refine_rounds << " feature=" << o.feature_angle_deg
+         << " fit=" << o.fit_rounds << "," << o.fit_factor << "," << o.fit_max_triangles;
   const std::string p = params.str();
   h.add(p.data(), p.size());
   return h.hex();

@@ -57,6 +57,8 @@ class Work {
   /// Orients every closed component to bound a volume (outward). Returns
   /// how many components were flipped. Throws PrepError when not closed.
   std::size_t orient_outward();
+  /// True when two triangles of the surface intersect.
+  bool self_intersects() const;
   /// Enclosed volume, m^3 (signed).
   double volume() const;
   /// A copy of the current surface.
@@ -68,6 +70,8 @@ class Work {
   /// sharper than feature_angle_deg (0: none) are kept as creases. Returns
   /// how many edges were creases before remeshing.
   std::size_t remesh(double edge_m, int iterations, int relaxation_steps, double feature_angle_deg);
+  /// Back to the surface as it was before remesh() (to remesh it again).
+  void restore_reference();
   /// Tangential relaxation of every vertex, projected back onto the surface
   /// as it was before remesh().
   void relax(int steps);

@@ -59,6 +59,10 @@ std::size_t Work::remesh(double edge_m, int iterations, int relaxation_steps, do
   return n_sharp;
 }
 
+void Work::restore_reference() {
+  if (!impl_->reference.is_empty()) impl_->mesh = impl_->reference;
+}
+
 // ---------------------------------------------------------------------------
 // Tangential relaxation evens out the vertex spacing; each vertex is then
 // projected back onto the surface as it was before remesh(), so the shape stays.

@@ -113,6 +113,8 @@ double Work::volume() const { return signed_volume(impl_->mesh, nullptr, -1, bbo
 
 Soup Work::soup() const { return soup_from_mesh(impl_->mesh); }
 
+bool Work::self_intersects() const { return PMP::does_self_intersect(impl_->mesh); }
+
 // ---------------------------------------------------------------------------
 // Duplicate points and polygons, degenerate polygons, isolated points
 // (repair_polygon_soup); a consistent orientation, splitting non-manifold

@@ -144,7 +144,8 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
                             fmt("%.3g", options.probe_radius_m * 1e3) + " mm"
                       : "a quarter of the probe radius " + fmt("%.3g", options.probe_radius_m * 1e3) + " mm";
   }
-  const double L = r.edge_target_m;
+  double L = r.edge_target_m;
+  r.edge_requested_m = L;
   const double expected_triangles = r.before.area_m2 / (std::sqrt(3.0) / 4 * L * L);
   if (expected_triangles > kMaxTriangles)
     throw PrepError(source + ": an edge of " + fmt("%.3g", L * 1e3) + " mm would give about " +
@@ -153,7 +154,7 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
 
   // Steps.
   const char* names[] = {"repair soup", "drop specks", "fill holes", "self-intersections", "orient outward",
-                         "remesh",      "relax",       "refine features", "reorder", "measure"};
+                         "remesh",      "relax",       "refine features", "fit edge", "reorder", "measure"};
   const int count = static_cast<int>(std::size(names));
   int index = 0;
   auto step = [&](auto&& fn) {
@@ -221,6 +222,36 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
     r.refine_tolerance_m = 0.6 * std::max(0.5e-3, L / 4);
     r.refined_triangles = work.refine(r.refine_tolerance_m, L, options.refine_rounds, r.refine_rounds);
   });
+  step([&] {
+    // While the Hausdorff or volume target is missed (a feature narrower than
+    // the edge), remesh the repaired surface again with a shorter uniform edge.
+    for (int round = 0; round < options.fit_rounds; ++round) {
+      const double limit = std::max(0.5e-3, L / 4);
+      const double h = internal::hausdorff_symmetric(work.soup(), reference, std::max(1e-7, L / 10));
+      const double dv = std::abs(work.volume() - r.volume_repaired_m3) / r.volume_repaired_m3;
+      if (h <= limit && dv <= 0.01) break;
+      const double next = L * options.fit_factor;
+      const double triangles = r.before.area_m2 / (std::sqrt(3.0) / 4 * next * next);
+      if (triangles > options.fit_max_triangles) {
+        r.warnings.push_back("the edge was not shortened below " + fmt("%.3g", L * 1e3) + " mm: " +
+                             fmt("%.3g", next * 1e3) + " mm would give about " + fmt("%.3g", triangles) +
+                             " triangles (PrepOptions::fit_max_triangles " +
+                             fmt("%.0f", static_cast<double>(options.fit_max_triangles)) + ")");
+        break;
+      }
+      L = next;
+      ++r.fit_rounds;
+      work.restore_reference();
+      work.remesh(L, options.remesh_iterations, options.relaxation_steps, options.feature_angle_deg);
+      work.relax(options.relaxation_steps);
+      r.refine_tolerance_m = 0.6 * std::max(0.5e-3, L / 4);
+      r.refined_triangles = work.refine(r.refine_tolerance_m, L, options.refine_rounds, r.refine_rounds);
+    }
+    if (r.fit_rounds > 0)
+      r.edge_rule += "; shortened to " + fmt("%.3g", L * 1e3) + " mm in " + std::to_string(r.fit_rounds) +
+                     " round(s) to meet the Hausdorff and volume targets";
+    r.edge_target_m = L;
+  });
   mesh::SurfaceMesh result;
   step([&] {
     out = work.sorted_soup();
@@ -230,6 +261,7 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
   });
   step([&] {
     r.after = summarize(result);
+    r.self_intersecting_after = work.self_intersects();
     r.hausdorff_bound_m = std::max(1e-7, L / 40);
     r.hausdorff_m = internal::hausdorff_symmetric(out, reference, r.hausdorff_bound_m);
     r.hausdorff_input_m = internal::hausdorff_one_sided(kept, out, r.hausdorff_bound_m);
@@ -248,6 +280,8 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
   for (const auto& d : r.dropped)
     r.warnings.push_back("dropped a speck of " + std::to_string(d.triangles) + " triangles (" +
                          fmt("%.3g", d.extent_m * 1e3) + " mm across, " + fmt("%.3g", d.area_m2 * 1e6) + " mm^2)");
+  if (r.self_intersecting_after)
+    r.warnings.push_back("the remeshed surface intersects itself (a part thinner than the edge); choose a shorter edge");
   for (const auto& u : unmet_targets(r)) r.warnings.push_back("target not met: " + u);
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (report_out) *report_out = std::move(r);

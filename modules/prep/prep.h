@@ -71,6 +71,12 @@ struct PrepOptions {
   /// uniform (refinement lowers the Hausdorff distance at fissures and thin
   /// rims, and raises the edge-length CV).
   int refine_rounds = 0;
+  /// Rounds of shortening the uniform edge (by fit_factor each) while the
+  /// Hausdorff or volume target is missed; 0: keep the edge as chosen.
+  int fit_rounds = 3;
+  double fit_factor = 0.75;
+  /// The edge is not shortened past the length that would give more triangles than this.
+  std::size_t fit_max_triangles = 400'000;
   /// Called at the start of each step (name, 0-based index, step count) and
   /// with its duration at the end (fraction 1). May be empty.
   std::function<void(std::string_view step, int index, int count, double fraction)> progress;
@@ -133,7 +139,9 @@ struct PrepReport {
   std::string input;            ///< file name (or source name)
   double unit_m = 1;            ///< metres per input unit used
   bool unit_guessed = false;
-  double edge_target_m = 0;
+  double edge_target_m = 0;     ///< the edge used, m
+  double edge_requested_m = 0;  ///< the edge given or chosen by the rule, before fitting, m
+  int fit_rounds = 0;           ///< rounds that shortened the edge to meet the targets
   std::string edge_rule;        ///< how the edge length was chosen, in words
   MeshSummary before;           ///< the input as loaded (no welding, no reorientation)
   MeshSummary after;            ///< the prepared mesh
@@ -163,6 +171,7 @@ struct PrepReport {
   double hausdorff_bound_m = 0;  ///< error bound of the bounded-error Hausdorff computation
   double volume_change = 0;      ///< (V_out - V_repaired) / V_repaired
   double volume_change_input = 0;///< (V_out - V_in) / |V_in| when the input was closed, else 0
+  bool self_intersecting_after = false;  ///< the prepared surface intersects itself
   std::vector<std::string> warnings;
   std::vector<StepTime> times;
   double seconds = 0;

@@ -18,14 +18,15 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(MeshSummary, vertices, triangles
                                                 area_m2, edge_mean_m, edge_cv, edge_min_m, edge_max_m, min_angle_deg,
                                                 extent_m)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(StepTime, step, seconds)
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(PrepReport, input, unit_m, unit_guessed, edge_target_m, edge_rule,
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(PrepReport, input, unit_m, unit_guessed, edge_target_m,
+                                                edge_requested_m, fit_rounds, edge_rule,
                                                 before, after, loader_degenerate, loader_duplicate, merged_points,
                                                 removed_polygons, nonmanifold_duplicated, dropped, holes,
                                                 flipped_components, reoriented, self_intersections,
                                                 self_intersection_fix, volume_repaired_m3, crease_edges, refine_tolerance_m,
                                                 refined_triangles, refine_rounds, hausdorff_m,
                                                 hausdorff_input_m, hausdorff_bound_m, volume_change,
-                                                volume_change_input, warnings, times, seconds, from_cache, cache_key)
+                                                volume_change_input, self_intersecting_after, warnings, times, seconds, from_cache, cache_key)
 
 namespace {
 constexpr const char* kFormat = "palpa.prep-report";
@@ -87,6 +88,7 @@ std::string report_text(const PrepReport& r) {
   for (const auto& h : r.holes)
     line("    %zu boundary edges, perimeter %.3g mm, patch %.3g mm^2 in %zu triangles%s", h.boundary_edges,
          h.perimeter_m * 1e3, h.area_m2 * 1e6, h.added_triangles, h.faired ? "" : " (not faired)");
+  line("  self-intersecting after: %s", yes(r.self_intersecting_after));
   line("  orientation: %s", r.reoriented ? (std::to_string(r.flipped_components) + " component(s) flipped outward").c_str()
                                          : "already outward");
   line("  self-intersections: %zu pairs%s%s", r.self_intersections, r.self_intersection_fix.empty() ? "" : ", fixed by ",

@@ -23,6 +23,7 @@ TEST(PrepCache, SecondCallIsAHitWithTheSameMesh) {
   PrepOptions o;
   o.unit_m = 1.0;
   o.edge_m = 0.004;
+  o.fit_rounds = 0;
 
   PrepReport first, second;
   const mesh::SurfaceMesh a = prepare_cached(file, o, &first, cache);

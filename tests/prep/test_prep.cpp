@@ -42,10 +42,12 @@ void append(mesh::SurfaceMesh& a, const mesh::SurfaceMesh& b) {
   for (auto t : b.triangles) a.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
 }
 
+// The edge as given, not shortened to fit (the fit has its own test).
 PrepOptions options(double edge = kEdge) {
   PrepOptions o;
   o.unit_m = 1.0;
   o.edge_m = edge;
+  o.fit_rounds = 0;
   return o;
 }
 
@@ -173,11 +175,34 @@ TEST_F(Prep, OverlappingSpheresBecomeTheirUnion) {
   EXPECT_LE(r.hausdorff_m, 0.5 * r.edge_target_m);
 }
 
+TEST_F(Prep, FitShortensTheEdgeWhereTheTargetIsMissed) {
+  // The crease where two spheres overlap is rounded by about a third of the
+  // edge, more than the quarter edge allowed: one fit round shortens the edge
+  // by 3/4 and brings the surface closer.
+  const double r0 = 0.02, d = 0.025;
+  mesh::SurfaceMesh s = sphere(r0, Vec3(-d / 2, 0, 0), 600);
+  append(s, sphere(r0, Vec3(d / 2, 0, 0), 600));
+  const auto file = write(dir, "overlap_small.ply", s);
+  PrepReport plain, fitted;
+  prepare_file(file, options(0.004), &plain);
+  PrepOptions o = options(0.004);
+  o.fit_rounds = 1;
+  prepare_file(file, o, &fitted);
+  EXPECT_GT(plain.hausdorff_m, std::max(0.5e-3, 0.004 / 4));
+  EXPECT_EQ(fitted.fit_rounds, 1);
+  EXPECT_DOUBLE_EQ(fitted.edge_requested_m, 0.004);
+  EXPECT_DOUBLE_EQ(fitted.edge_target_m, 0.003);
+  EXPECT_NE(fitted.edge_rule.find("shortened to 3 mm in 1 round(s)"), std::string::npos) << fitted.edge_rule;
+  EXPECT_LT(fitted.hausdorff_m, plain.hausdorff_m);
+  EXPECT_GT(fitted.after.triangles, plain.after.triangles);
+}
+
 TEST_F(Prep, EdgeFromProbeRadiusFollowsTheRule) {
   EXPECT_DOUBLE_EQ(target_edge_for(0.008, 0.2), 0.002);      // a quarter of the radius
   EXPECT_DOUBLE_EQ(target_edge_for(0.008, 0.04), 0.001);     // 1/40 of a small organ's diagonal
   PrepOptions o;
   o.unit_m = 1.0;
+  o.fit_rounds = 0;
   o.probe_radius_m = 0.016;  // edge 4 mm (the diagonal's 1/40 is 4.3 mm)
   PrepReport r;
   prepare_file(write(dir, "sphere.ply", sphere()), o, &r);
@@ -208,7 +233,7 @@ TEST_F(Prep, ProgressNamesEveryStepInOrderAndCancelStops) {
   std::vector<std::string> steps;
   PrepOptions o = options();
   o.progress = [&](std::string_view step, int index, int count, double fraction) {
-    EXPECT_EQ(count, 10);
+    EXPECT_EQ(count, 11);
     if (fraction == 0) {
       EXPECT_EQ(index, static_cast<int>(steps.size()));
       steps.emplace_back(step);
@@ -219,7 +244,7 @@ TEST_F(Prep, ProgressNamesEveryStepInOrderAndCancelStops) {
   prepare_file(file, o, &r);
   const std::vector<std::string> expected = {"repair soup", "drop specks", "fill holes", "self-intersections",
                                              "orient outward", "remesh", "relax", "refine features",
-                                             "reorder", "measure"};
+                                             "fit edge", "reorder", "measure"};
   EXPECT_EQ(steps, expected);
   ASSERT_EQ(r.times.size(), expected.size());
   for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(r.times[i].step, expected[i]);
