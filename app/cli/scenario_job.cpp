@@ -136,8 +136,10 @@ int run_indent(const ScenarioOptions& o, const scenario::Resolved& r) {
       const auto& s = samples[k];
       j << "  {\"depth_m\": " << s.depth << ", \"force_n\": " << s.force << ", \"surface_point_m\": ["
         << s.surface_point.x() << ", " << s.surface_point.y() << ", " << s.surface_point.z()
-        << "], \"in_contact\": " << (s.in_contact ? "true" : "false") << ", \"thickness_m\": " << site.thickness
-        << "}" << (k + 1 < samples.size() ? "," : "") << "\n";
+        << "], \"in_contact\": " << (s.in_contact ? "true" : "false") << ", \"thickness_m\": ";
+      if (std::isfinite(site.thickness)) j << site.thickness;
+      else j << "null";  // an open patch: no opposite side
+      j << "}" << (k + 1 < samples.size() ? "," : "") << "\n";
     }
     j << "]\n";
     std::ofstream f(o.json, std::ios::binary | std::ios::trunc);

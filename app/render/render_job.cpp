@@ -74,7 +74,8 @@ std::string render_usage(const std::string& program) {
          "  --path partial|vtk|cpu stream upload path (default partial)\n"
          "  --settle SECONDS       simulated time before the picture (default 1)\n"
          "  --scenario FILE        a scenario: its organ, tissues, lesions, pulse and breathing\n"
-         "  --reveal               also draw the scenario's hidden and after-exam lesions (debriefing)\n"
+         "  --reveal               also draw the scenario's hidden and after-exam lesions and the force\n"
+         "                         arrows (debriefing; without it a scenario's picture shows no force)\n"
          "  --stiffness N_PER_M    vertex stiffness (default 200)\n"
          "  --damping NS_PER_M     vertex damping (default 2)\n"
          "  --mass KG              vertex mass (default 0.001)\n"
@@ -283,13 +284,17 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
     }
     result.lesions_drawn = lesion_views.size();
   }
+  // A scenario's picture shows no force arrow (its length would give hidden
+  // lesions away: the trainee finds them by feel) unless revealed.
+  const bool hide_force = scen && !o.reveal;
   std::vector<std::unique_ptr<ProbeView>> probe_views;
   const double size = (organ.facts.bbox_max - organ.facts.bbox_min).norm();
   for (std::size_t k = 0; k < specs.size(); ++k) {
     auto pv = std::make_unique<ProbeView>(0.008 * size, 0.15 * size);
     pv->set_force_scale(0.25 * size / std::max(o.force.max_force, 1e-9));
     const Vec3 tip = field ? field->to_world(tips[k], t_end) : tips[k];
-    pv->set_state(tip, axes[k], haptics::to_vec(outputs[k].force_world), outputs[k].in_contact != 0, k == 0);
+    const Vec3 arrow = hide_force ? Vec3::Zero() : haptics::to_vec(outputs[k].force_world);
+    pv->set_state(tip, axes[k], arrow, outputs[k].in_contact != 0, k == 0);
     pv->add_to(scene.renderer());
     probe_views.push_back(std::move(pv));
   }

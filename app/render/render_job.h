@@ -30,7 +30,9 @@ struct RenderJobOptions {
   std::filesystem::path mesh;            ///< empty: the bundled default organ
   /// A scenario (docs/SCENARIO.md): its organ, tissues, lesions, pulse and
   /// breathing replace mesh, unit, material and shape. Hidden lesions are
-  /// never drawn; shown ones are, and after-exam ones with `reveal`.
+  /// never drawn; shown ones are, and every lesion with `reveal`. A
+  /// scenario's picture has no force arrows unless revealed (their length
+  /// would give hidden lesions away).
   std::filesystem::path scenario;
   bool reveal = false;
   mesh::MeshUnit unit = mesh::MeshUnit::Auto;
