@@ -79,7 +79,7 @@ std::string cache_key(const std::filesystem::path& path, const PrepOptions& o) {
          << " probe=" << o.probe_radius_m << " speck=" << o.speck_area_fraction
          << " hole=" << o.max_hole_area_fraction << " it=" << o.remesh_iterations << " relax=" << o.relaxation_steps
          << " refine=" << o.refine_rounds << " feature=" << o.feature_angle_deg
-         << " fit=" << o.fit_rounds << "," << o.fit_factor << "," << o.fit_max_triangles;
+         << " si=" << o.allow_autorefine << o.allow_local_repair << " fit=" << o.fit_rounds << "," << o.fit_factor << "," << o.fit_max_triangles;
   const std::string p = params.str();
   h.add(p.data(), p.size());
   return h.hex();

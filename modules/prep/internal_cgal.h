@@ -53,7 +53,8 @@ class Work {
   /// Finds self-intersections and repairs them: autorefinement (exact, keeps
   /// the outer surface), then local repair, then alpha wrapping (alpha and
   /// offset in m) as the last resort.
-  IntersectionFix fix_self_intersections(double wrap_alpha_m, double wrap_offset_m);
+  IntersectionFix fix_self_intersections(double wrap_alpha_m, double wrap_offset_m, bool autorefine = true,
+                                         bool local_repair = true);
   /// Orients every closed component to bound a volume (outward). Returns
   /// how many components were flipped. Throws PrepError when not closed.
   std::size_t orient_outward();

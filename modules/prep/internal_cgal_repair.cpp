@@ -230,7 +230,8 @@ std::vector<FilledHole> Work::fill_holes(double max_area_fraction) {
 // surface, e.g. the union of two overlapping spheres), then CGAL's local
 // repair (smoothing and hole filling of the intersecting patches), then an
 // alpha wrap, which remeshes the whole shape: the caller warns by how much.
-IntersectionFix Work::fix_self_intersections(double wrap_alpha_m, double wrap_offset_m) {
+IntersectionFix Work::fix_self_intersections(double wrap_alpha_m, double wrap_offset_m, bool autorefine,
+                                             bool local_repair) {
   CMesh& m = impl_->mesh;
   IntersectionFix fix;
   std::vector<std::pair<face_descriptor, face_descriptor>> pairs;
@@ -243,7 +244,7 @@ IntersectionFix Work::fix_self_intersections(double wrap_alpha_m, double wrap_of
   };
 
   // 1. Autorefinement.
-  {
+  if (autorefine) {
     CMesh trial = m;
     bool ok = false;
     try {
@@ -261,7 +262,7 @@ IntersectionFix Work::fix_self_intersections(double wrap_alpha_m, double wrap_of
   }
 
   // 2. Local repair.
-  {
+  if (local_repair) {
     CMesh trial = m;
     bool ok = false;
     try {

@@ -188,7 +188,7 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
     before_fix = work.soup();
   });
   step([&] {
-    const internal::IntersectionFix fix = work.fix_self_intersections(L, L / 20);
+    const internal::IntersectionFix fix = work.fix_self_intersections(L, L / 20, options.allow_autorefine, options.allow_local_repair);
     r.self_intersections = fix.pairs;
     r.self_intersection_fix = fix.method;
     for (const auto& n : fix.notes) r.warnings.push_back("self-intersections: " + n);

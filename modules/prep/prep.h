@@ -56,6 +56,10 @@ struct PrepOptions {
   /// A hole whose filling would be more than this fraction of the surface
   /// area means the input is an open sheet, not a closed organ with holes: error.
   double max_hole_area_fraction = 0.2;
+  /// Self-intersection repairs tried before the alpha wrap (the last resort,
+  /// always allowed): exact autorefinement, then CGAL's local repair.
+  bool allow_autorefine = true;
+  bool allow_local_repair = true;
   /// Isotropic remeshing iterations (split, collapse, flip, relax, project).
   int remesh_iterations = 5;
   /// Tangential relaxation steps inside each iteration, and after the last.

@@ -175,6 +175,35 @@ TEST_F(Prep, OverlappingSpheresBecomeTheirUnion) {
   EXPECT_LE(r.hausdorff_m, 0.5 * r.edge_target_m);
 }
 
+TEST_F(Prep, AlphaWrapIsTheLastResortAndSaysHowTheShapeChanged) {
+  // The same overlapping spheres with the in-place repairs turned off: the
+  // alpha wrap (alpha = edge, offset = edge / 20) closes the union, a little
+  // larger (by about the offset), and the first warning says so.
+  const double r0 = 0.04, d = 0.05;
+  mesh::SurfaceMesh s = sphere(r0, Vec3(-d / 2, 0, 0));
+  append(s, sphere(r0, Vec3(d / 2, 0, 0)));
+  PrepOptions o = options(0.004);
+  o.allow_autorefine = false;
+  o.allow_local_repair = false;
+  PrepReport r;
+  prepare_file(write(dir, "overlap.ply", s), o, &r);
+  EXPECT_EQ(r.self_intersection_fix, "alpha_wrap");
+  EXPECT_TRUE(r.after.closed);
+  EXPECT_TRUE(r.after.manifold);
+  EXPECT_TRUE(r.after.outward);
+  EXPECT_EQ(r.after.components, 1u);
+  const double lens = M_PI * (4 * r0 + d) * (2 * r0 - d) * (2 * r0 - d) / 12;
+  const double v_union = 2 * 4.0 / 3.0 * M_PI * r0 * r0 * r0 - lens;
+  EXPECT_NEAR(r.after.volume_m3 / v_union, 1.0, 0.03) << report_text(r);
+  ASSERT_FALSE(r.warnings.empty());
+  const std::string prefix = "self-intersections (" + std::to_string(r.self_intersections) +
+                             " triangle pairs) could not be repaired in place: the surface was alpha-wrapped (alpha 4 "
+                             "mm, offset 0.2 mm), so the shape changed: the wrap lies up to ";
+  EXPECT_EQ(r.warnings[0].substr(0, prefix.size()), prefix) << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("mm from the input surface; the volume changed by "), std::string::npos)
+      << r.warnings[0];
+}
+
 TEST_F(Prep, FitShortensTheEdgeWhereTheTargetIsMissed) {
   // The crease where two spheres overlap is rounded by about a third of the
   // edge, more than the quarter edge allowed: one fit round shortens the edge
