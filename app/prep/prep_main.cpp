@@ -18,7 +18,7 @@ using namespace palpa;
 
 constexpr const char* kUsage =
     "usage: palpa-prep IN OUT [--unit U] [--edge-mm L | --probe-radius-mm R] [--report FILE.json]\n"
-    "                  [--fit-rounds N] [--feature-angle DEG] [--refine-rounds N] [--no-cache] [--cache-dir DIR] [--quiet]\n"
+    "                  [--repaired FILE] [--fit-rounds N] [--feature-angle DEG] [--refine-rounds N] [--no-cache] [--cache-dir DIR] [--quiet]\n"
     "  IN                 any mesh Palpa reads (.obj .stl .ply .off .vtk .vtp .trian)\n"
     "  OUT                the prepared mesh, in metres (.ply .obj .stl); load it with unit 1\n"
     "  --unit U           file unit of IN: m, cm, mm, auto (default: guessed from the size) or metres per unit (1e-3)\n"
@@ -30,6 +30,7 @@ constexpr const char* kUsage =
     "  --refine-rounds N  rounds of local refinement where a feature is thinner than the edge (default %d;\n"
     "                     each refines with 0.6 x the previous edge, at the cost of a less uniform edge)\n"
     "  --report FILE      also write the report as JSON\n"
+    "  --repaired FILE    also write the repaired surface before remeshing (metres; implies --no-cache)\n"
     "  --no-cache         prepare even when the cache has this input with these parameters\n"
     "  --cache-dir DIR    the cache folder (default $PALPA_PREP_CACHE, $XDG_CACHE_HOME/palpa/prep or ~/.cache/palpa/prep)\n"
     "  --quiet            no progress lines\n";
@@ -54,7 +55,7 @@ bool parse_positive(const std::string& s, double& out) {
 int main(int argc, char** argv) {
   std::vector<std::string> pos;
   prep::PrepOptions opt;
-  std::string report_path, cache_dir;
+  std::string report_path, cache_dir, repaired_path;
   bool use_cache = true, quiet = false, edge_given = false, radius_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -102,6 +103,8 @@ int main(int argc, char** argv) {
       if (!value(v) || (v != "0" && !parse_positive(v, n)) || n > 10 || n != std::floor(n))
         return usage_error("--refine-rounds needs a whole number from 0 to 10");
       opt.refine_rounds = static_cast<int>(n);
+    } else if (a == "--repaired") {
+      if (!value(repaired_path)) return usage_error("--repaired needs a file name");
     } else if (a == "--report") {
       if (!value(report_path)) return usage_error("--report needs a file name");
     } else if (a == "--cache-dir") {
@@ -129,6 +132,11 @@ int main(int argc, char** argv) {
       std::fflush(stderr);
     };
 
+  mesh::SurfaceMesh repaired;
+  if (!repaired_path.empty()) {
+    opt.repaired = &repaired;
+    use_cache = false;
+  }
   try {
     prep::PrepReport report;
     const mesh::SurfaceMesh out =
@@ -136,6 +144,7 @@ int main(int argc, char** argv) {
                                          cache_dir.empty() ? prep::default_cache_dir() : std::filesystem::path(cache_dir))
                   : prep::prepare_file(pos[0], opt, &report);
     mesh::save_mesh(out, pos[1]);
+    if (!repaired_path.empty()) mesh::save_mesh(repaired, repaired_path);
     if (!report_path.empty()) {
       const std::string text = prep::report_json(report);
       const std::string tmp = report_path + ".palpa-tmp";

@@ -198,6 +198,11 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
     r.reoriented = r.flipped_components > 0;
     r.volume_repaired_m3 = work.volume();
     reference = work.soup();
+    if (options.repaired) {
+      options.repaired->positions = reference.points;
+      options.repaired->triangles = reference.triangles;
+      mesh::finalize(*options.repaired);
+    }
     const double box = std::pow(diag / std::sqrt(3.0), 3);
     if (!(r.volume_repaired_m3 > 1e-9 * box))
       throw PrepError(source + ": cannot make a closed surface: the repaired surface encloses no volume (" +

@@ -81,6 +81,9 @@ struct PrepOptions {
   double fit_factor = 0.75;
   /// The edge is not shortened past the length that would give more triangles than this.
   std::size_t fit_max_triangles = 400'000;
+  /// When set, receives the repaired, closed, outward surface before
+  /// remeshing (the reference of the Hausdorff distance), in metres.
+  mesh::SurfaceMesh* repaired = nullptr;
   /// Called at the start of each step (name, 0-based index, step count) and
   /// with its duration at the end (fraction 1). May be empty.
   std::function<void(std::string_view step, int index, int count, double fraction)> progress;
