@@ -5,6 +5,7 @@
 #include "mesh/organ.h"
 #include "prep/prep.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -18,7 +19,8 @@ using namespace palpa;
 
 constexpr const char* kUsage =
     "usage: palpa-prep IN OUT [--unit U] [--edge-mm L | --probe-radius-mm R] [--report FILE.json]\n"
-    "                  [--repaired FILE] [--fit-rounds N] [--feature-angle DEG] [--refine-rounds N] [--no-cache] [--cache-dir DIR] [--quiet]\n"
+    "                  [--repaired FILE] [--fit-rounds N] [--feature-angle DEG] [--refine-rounds N]\n"
+    "                  [--no-cache] [--cache-dir DIR] [--quiet]\n"
     "  IN                 any mesh Palpa reads (.obj .stl .ply .off .vtk .vtp .trian)\n"
     "  OUT                the prepared mesh, in metres (.ply .obj .stl); load it with unit 1\n"
     "  --unit U           file unit of IN: m, cm, mm, auto (default: guessed from the size) or metres per unit (1e-3)\n"
@@ -34,6 +36,9 @@ constexpr const char* kUsage =
     "  --no-cache         prepare even when the cache has this input with these parameters\n"
     "  --cache-dir DIR    the cache folder (default $PALPA_PREP_CACHE, $XDG_CACHE_HOME/palpa/prep or ~/.cache/palpa/prep)\n"
     "  --quiet            no progress lines\n";
+
+// A progress line was started ("[k/n] step ...") and not ended yet.
+bool g_progress_line_open = false;
 
 int usage_error(const std::string& what) {
   std::fprintf(stderr, "palpa-prep: %s\n", what.c_str());
@@ -122,13 +127,20 @@ int main(int argc, char** argv) {
   if (pos.size() != 2) return usage_error("needs an input and an output file");
   if (edge_given && radius_given) return usage_error("give --edge-mm or --probe-radius-mm, not both");
 
-  // Progress: one line per step with its time.
+  // Progress: one line per step as it starts, its time when it ends.
   if (!quiet)
     opt.progress = [](std::string_view step, int index, int count, double fraction) {
-      if (fraction == 0)
-        std::fprintf(stderr, "[%d/%d] %.*s ...\n", index + 1, count, static_cast<int>(step.size()), step.data());
-      else if (step == "cache hit")
+      static std::chrono::steady_clock::time_point t0;
+      if (step == "cache hit") {
         std::fprintf(stderr, "cache hit: the prepared mesh is loaded from the cache\n");
+      } else if (fraction == 0) {
+        t0 = std::chrono::steady_clock::now();
+        std::fprintf(stderr, "[%d/%d] %.*s ...", index + 1, count, static_cast<int>(step.size()), step.data());
+        g_progress_line_open = true;
+      } else {
+        std::fprintf(stderr, " %.2f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        g_progress_line_open = false;
+      }
       std::fflush(stderr);
     };
 
@@ -161,6 +173,7 @@ int main(int argc, char** argv) {
                 out.triangle_count());
     return 0;
   } catch (const std::exception& e) {
+    if (g_progress_line_open) std::fputs(" failed\n", stderr);
     std::fprintf(stderr, "palpa-prep: %s\n", e.what());
     return 1;
   }
