@@ -142,19 +142,26 @@ class SoupImporter final : public OMIO::BaseImporter {
 };
 
 // ---------------------------------------------------------------------------
-// While alive, OpenMesh's error stream goes into a string instead of stderr, so
-// that what it says can be put into our error message.
+// While alive, what OpenMesh's error stream says is collected in a string
+// (to be put into our error message). OpenMesh's multiplex_streambuf leaks
+// the wrapper it allocates on every connect() (found by fuzz_mesh under
+// LeakSanitizer), so the stream is redirected once for the process: from then
+// on OpenMesh writes into our buffer, which each read clears (reads hold the
+// OpenMesh mutex).
 class CaptureOpenMeshErrors {
  public:
   CaptureOpenMeshErrors() : was_enabled_(::omerr().is_enabled()) {
-    had_cerr_ = ::omerr().disconnect(std::cerr);
-    ::omerr().connect(text_);
+    static std::once_flag once;
+    std::call_once(once, [] {
+      ::omerr().disconnect(std::cerr);
+      ::omerr().connect(buffer());
+    });
+    ::omerr().flush();
+    buffer().str("");
   }
   ~CaptureOpenMeshErrors() {
-    // Also undo a reader's omerr().disable() that an exception skipped past.
+    // Undo a reader's omerr().disable() that an exception skipped past.
     was_enabled_ ? ::omerr().enable() : ::omerr().disable();
-    ::omerr().disconnect(text_);
-    if (had_cerr_) ::omerr().connect(std::cerr);
   }
   CaptureOpenMeshErrors(const CaptureOpenMeshErrors&) = delete;
   CaptureOpenMeshErrors& operator=(const CaptureOpenMeshErrors&) = delete;
@@ -162,16 +169,18 @@ class CaptureOpenMeshErrors {
   /// What OpenMesh printed, on one line.
   std::string text() {
     ::omerr().flush();
-    std::string s = text_.str();
+    std::string s = buffer().str();
     std::replace(s.begin(), s.end(), '\n', ' ');
     while (!s.empty() && s.back() == ' ') s.pop_back();
     return s;
   }
 
  private:
-  std::ostringstream text_;
+  static std::ostringstream& buffer() {
+    static std::ostringstream* text = new std::ostringstream;  // lives as long as OpenMesh's stream
+    return *text;
+  }
   bool was_enabled_ = true;
-  bool had_cerr_ = false;
 };
 
 // OpenMesh's readers are singletons with state; one read at a time.
