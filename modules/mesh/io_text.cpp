@@ -14,6 +14,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <optional>
@@ -507,7 +508,14 @@ RawMesh read_ply(const std::string& bytes, const std::string& source, const Load
         if (indices) budget.add(static_cast<std::size_t>(n));
         for (unsigned long long j = 0; j < n; ++j) {
           if (!in.value(prop.type, v, bad)) truncated();
-          if (indices) raw.face_indices.push_back(static_cast<std::int64_t>(v));
+          if (!indices) continue;
+          // A float list may hold any value: only whole numbers in int64 range are cast.
+          if (!(v >= -9.2e18 && v <= 9.2e18 && v == std::floor(v))) {
+            char buf[40];
+            std::snprintf(buf, sizeof buf, "%g", v);
+            fail(source, name + " has the vertex index " + buf + ", which is not a whole number");
+          }
+          raw.face_indices.push_back(static_cast<std::int64_t>(v));
         }
         if (indices) raw.face_offsets.push_back(raw.face_indices.size());
       }

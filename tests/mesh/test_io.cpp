@@ -232,6 +232,11 @@ std::vector<BadInput> bad_inputs() {
        "property float z\nelement face 1\nproperty list int int vertex_indices\nend_header\n" + std::string(36, '\0') +
            le32(1000000000) + le32(0) + le32(1) + le32(2),
        "face 0 has 1000000000 vertices, more than the limit of 256 (LoadOptions::max_face_vertices)"},
+      // A float index list: 1e30 was cast to an integer (undefined behaviour).
+      {"ply float index", "float_index.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+       "element face 1\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1e30\n",
+       "face 0 has the vertex index 1e+30, which is not a whole number"},
       {"trian absurd count", "absurd.trian", "19999999\n0 0 0\n", "the file ends before vertex 1"},
       // Legacy VTK cells whose counts disagree with the data (VTK's reader crashed or read outside the cell).
       {"vtk cell count beyond its block", "cell_over.vtk",
