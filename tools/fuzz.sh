@@ -32,8 +32,8 @@ for t in "${targets[@]}"; do
      "corpus/$t" "../fuzz/corpus/$t" >/dev/null 2>&1 || true
    mv -f fuzz-0.log "$t.log")
   echo "== fuzz_$t, $seconds s =="
-  grep -E "^#[0-9]+ +(DONE|pulse|NEW|REDUCE|INITED)" "build-fuzz/$t.log" | tail -2
-  grep -E "^(stat::number_of_executed_units|stat::peak_rss_mb|Done )" "build-fuzz/$t.log" || true
+  { grep -E "^#[0-9]+[[:space:]]+(INITED|DONE)" "build-fuzz/$t.log" || true; } | tail -2
+  grep -E "^(stat::number_of_executed_units|stat::average_exec_per_sec|stat::peak_rss_mb|Done )" "build-fuzz/$t.log" || true
   if ls "build-fuzz/artifacts/$t/"* >/dev/null 2>&1; then
     echo "fuzz_$t: FINDINGS in build-fuzz/artifacts/$t/:"; ls "build-fuzz/artifacts/$t/"
   fi
