@@ -192,11 +192,12 @@ std::mutex& openmesh_mutex() {
 // ---------------------------------------------------------------------------
 // Small text helpers for the scans.
 
-// Splits a line at white space.
-std::vector<std::string_view> tokens(std::string_view line) {
+// Splits a line at white space: its first `most` tokens (the scan needs no
+// more, and a line may hold millions).
+std::vector<std::string_view> tokens(std::string_view line, std::size_t most = 5) {
   std::vector<std::string_view> out;
   std::size_t i = 0;
-  while (i < line.size()) {
+  while (i < line.size() && out.size() < most) {
     while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
     const std::size_t start = i;
     while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
