@@ -18,9 +18,10 @@ target_link_libraries(palpa_bench_cgal PUBLIC palpa::mesh PRIVATE CGAL::CGAL pal
 add_executable(palpa-bench
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_main.cpp
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_util.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_path.cpp)
-target_link_libraries(palpa-bench PRIVATE palpa::haptics palpa::collision palpa::deform palpa::mesh
-  palpa_bench_cgal nlohmann_json::nlohmann_json palpa_warnings)
+  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_path.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_tissue.cpp)
+target_link_libraries(palpa-bench PRIVATE palpa::haptics palpa::collision palpa::deform palpa::mesh palpa::tissue
+  opencv_core opencv_imgcodecs palpa_bench_cgal nlohmann_json::nlohmann_json palpa_warnings)
 # The shared organs live next to the source tree: <source>/../shared/data/organs.
 target_compile_definitions(palpa-bench PRIVATE
   PALPA_BENCH_SHARED_ORGANS_DIR="${PROJECT_SOURCE_DIR}/../shared/data/organs")

@@ -8,6 +8,8 @@
 //     tree, CGAL's AABB tree (with and without hint) and brute force, each
 //     followed by the contact interpolation,
 //   - one deformation step (active set and full mesh) against memcpy bandwidth,
+//   - a 1M-vertex tissue map: evaluated, applied, and stepped against a
+//     uniform material (palpa_bench_tissue.cpp),
 // prints tables with the targets next to the figures and optionally writes the
 // records as JSON. It is a benchmark, not a test: it never fails on a figure.
 
@@ -20,6 +22,7 @@
 #include "mesh/io.h"
 #include "palpa_bench_cgal.h"
 #include "palpa_bench_path.h"
+#include "palpa_bench_tissue.h"
 #include "palpa_bench_util.h"
 
 #include <nlohmann/json.hpp>
@@ -72,16 +75,18 @@ struct Options {
   fs::path shared_dir = PALPA_BENCH_SHARED_ORGANS_DIR;
   std::size_t ticks = 0;  // timed ticks per run; 0 = mode default
   std::uint64_t seed = 20240601;
+  bool tissue_map_only = false;
 };
 
 void print_usage() {
   std::printf(
-      "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--ticks N] [--seed N]\n"
+      "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--ticks N] [--seed N] [--tissue-map]\n"
       "  --quick            reduced set (spheres 10k, 100k, 1M; fewer ticks; no brute force above 100k)\n"
       "  --json FILE        also write the records as a JSON array to FILE\n"
       "  --shared-data DIR  folder of shared organ meshes (default %s)\n"
       "  --ticks N          timed ticks per run (default 50000, quick 3000)\n"
-      "  --seed N           trajectory seed (default 20240601)\n",
+      "  --seed N           trajectory seed (default 20240601)\n"
+      "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n",
       PALPA_BENCH_SHARED_ORGANS_DIR);
 }
 
@@ -115,6 +120,8 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       if (auto e = number("--ticks", n)) return e;
       if (n < 100) return std::string("--ticks: at least 100 ticks are needed for percentiles");
       o.ticks = n;
+    } else if (a == "--tissue-map") {
+      o.tissue_map_only = true;
     } else if (a == "--seed") {
       if (auto e = number("--seed", o.seed)) return e;
     } else if (a == "--help" || a == "-h") {
@@ -833,16 +840,18 @@ int main(int argc, char** argv) {
               "visits at most %s vertices per run\n",
               bench::short_count(plan.brute_budget).c_str());
 
-  // The meshes: spheres first, then the shared organs.
+  // The meshes: spheres first, then the shared organs (none with --tissue-map).
   std::vector<MeshCase> cases;
-  for (std::size_t n : plan.spheres) {
-    MeshCase c;
-    c.name = sphere_name(n);
-    c.source = "make_sphere";
-    c.sphere_target = n;
-    cases.push_back(c);
+  if (!opt.tissue_map_only) {
+    for (std::size_t n : plan.spheres) {
+      MeshCase c;
+      c.name = sphere_name(n);
+      c.source = "make_sphere";
+      c.sphere_target = n;
+      cases.push_back(c);
+    }
+    for (auto& c : organ_cases(opt.shared_dir)) cases.push_back(c);
   }
-  for (auto& c : organ_cases(opt.shared_dir)) cases.push_back(c);
 
   // Measure each mesh in turn (one mesh in memory at a time).
   Results results;
@@ -854,7 +863,12 @@ int main(int argc, char** argv) {
     }
   }
 
-  print_tables(results, clock);
+  if (!opt.tissue_map_only) print_tables(results, clock);
+  try {
+    bench::run_tissue_map_bench(1'000'000, opt.quick ? 3 : 5, results.records);
+  } catch (const std::exception& e) {
+    std::printf("[tissue map] skipped: %s\n", e.what());
+  }
   for (auto& rec : results.records) rec["clock_overhead_ns"] = clock.p50_ns;
   std::printf("total run time %.1f s\n", elapsed_ns(start, Clock::now()) * 1e-9);
 

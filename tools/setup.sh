@@ -9,10 +9,16 @@ PACKAGES=(
   cmake ninja-build g++ pkg-config ccache
   # core libraries
   libeigen3-dev libopenmesh-dev libvtk9-dev nlohmann-json3-dev
+  # scenario files: the organ's SHA-256 (libcrypto)
+  libssl-dev
+  # tissue maps: PNG images (OpenCV), nearest file point (nanoflann)
+  libopencv-dev libnanoflann-dev
   # benchmark comparison (CGAL is header-only; it needs GMP/MPFR headers)
   libcgal-dev libgmp-dev libmpfr-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the scenario-schema test validates shipped scenarios with python3's jsonschema
+  python3 python3-jsonschema
   # workbench and rendering: Qt5 with VTK's widget, offscreen GL (OSMesa, EGL), Xvfb for GUI tests
   qtbase5-dev libvtk9-qt-dev libosmesa6-dev libegl-dev libgl-dev xvfb xauth
   # devices: SpaceMouse (hidapi), Falcon (libusb), OpenIGTLink bridge, emulated devices in tests

@@ -2,6 +2,7 @@
 // virtual probes at a fixed haptic rate, printing forces and timings. It needs
 // no display and no device; it is the headless main job of Palpa.
 
+#include "app/cli/scenario_job.h"
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
 #include "haptics/session.h"
@@ -55,6 +56,7 @@ void usage() {
       "  --depth M            maximum indentation, 0.0001 .. 0.05 m (default 0.008)\n"
       "  --stiffness N_PER_M  vertex stiffness, 0.001 .. 1e+06 N/m (default 200)\n"
       "  --friction K         friction coefficient of eq. (4), 0 .. 2 (default 0.2)\n"
+      "  --scenario FILE ...  run a scenario instead (palpa-palpate --scenario FILE --help for its options)\n"
       "Every number outside its range is refused (never clamped).");
 }
 
@@ -143,6 +145,9 @@ struct ScriptedProbe {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A scenario run has its own options (app/cli/scenario_job.h).
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--scenario") == 0) return palpa::app::scenario_main({argv + 1, argv + argc});
   Options o;
   if (!parse(argc, argv, o)) return 2;
 

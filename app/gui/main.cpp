@@ -1,11 +1,16 @@
-// palpa: the Qt5 workbench on the bundled default organ. With no display it
-// says so and does its job headless: palpates the default organ and writes a
-// PNG. `palpa render [options]` is the headless job with palpa-render's options.
+// palpa: the Qt5 workbench on the bundled default organ, or on FILE (an
+// organ mesh or a scenario .json) with `palpa FILE`. With no display it says
+// so and does its job headless: palpates the default organ (or FILE's organ,
+// or runs FILE's scenario as `palpa render --scenario FILE` would) and writes
+// a PNG. `palpa render [options]` is the headless job with palpa-render's options.
 
 #include "app/gui/main_window.h"
 #include "app/render/render_job.h"
+#include "app/scenario/scenario_check.h"
 
 #include <QApplication>
+#include <QFileInfo>
+#include <QMessageBox>
 
 #include <cstdio>
 #include <cstdlib>
@@ -41,23 +46,48 @@ bool have_display() {
   return (x && *x) || (w && *w);
 }
 
+// `palpa FILE [options]`: the first argument names a file to open.
+bool names_file(const std::vector<std::string>& args) {
+  return !args.empty() && !args[0].empty() && args[0][0] != '-';
+}
+
+bool is_scenario(const std::string& path) { return QFileInfo(QString::fromStdString(path)).suffix().toLower() == "json"; }
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   if (!args.empty() && args[0] == "render") return run_headless({args.begin() + 1, args.end()}, "palpa-render.png");
+  if (!args.empty() && args[0] == "scenario")
+    return palpa::app::run_scenario_command({args.begin() + 1, args.end()}, "palpa scenario", std::cout, std::cerr);
   if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
     std::cout << "usage: palpa              the workbench window on the default organ\n"
+                 "       palpa FILE         the workbench on FILE: an organ mesh, or a scenario (.json) it runs\n"
                  "       palpa render ...   render to PNG with no display (palpa render --help)\n"
+                 "       palpa scenario check FILE   validate a scenario file and print its summary\n"
                  "With no display, palpa palpates the default organ headless and writes palpa-headless.png\n"
-                 "(options as for palpa render).\n";
+                 "(options as for palpa render); palpa FILE.json then runs the scenario as\n"
+                 "palpa render --scenario FILE.json would, palpa MESH palpates that organ.\n";
     return 0;
   }
+  const std::string file = names_file(args) ? args[0] : std::string();
   if (!have_display()) {
+    if (file.empty()) {
+      std::cout << "palpa: no display (DISPLAY is not set), so no window; running headless instead: "
+                   "palpating the default organ and writing a PNG\n"
+                << std::flush;
+      return run_headless(args, "palpa-headless.png");
+    }
+    // FILE headless: a scenario as `palpa render --scenario FILE`, a mesh as `--mesh FILE`.
+    const bool scenario = is_scenario(file);
     std::cout << "palpa: no display (DISPLAY is not set), so no window; running headless instead: "
-                 "palpating the default organ and writing a PNG\n"
+              << (scenario ? "running the scenario " : "palpating the organ ") << file
+              << " and writing a PNG (as palpa render " << (scenario ? "--scenario " : "--mesh ") << file
+              << " would)\n"
               << std::flush;
-    return run_headless(args, "palpa-headless.png");
+    std::vector<std::string> job = {scenario ? "--scenario" : "--mesh", file};
+    job.insert(job.end(), args.begin() + 1, args.end());
+    return run_headless(job, "palpa-headless.png");
   }
 
   palpa::app::configure_application_defaults();
@@ -65,5 +95,10 @@ int main(int argc, char** argv) {
   palpa::app::MainWindow window;
   window.resize(1280, 800);
   window.show();
+  // `palpa FILE`: open it over the default organ; a failure says why, naming the file.
+  if (!file.empty() && !window.open_file(QString::fromStdString(file))) {
+    std::fprintf(stderr, "palpa: %s\n", window.error_text().toStdString().c_str());
+    QMessageBox::critical(&window, "Palpa: could not open " + QString::fromStdString(file), window.error_text());
+  }
   return app.exec();
 }

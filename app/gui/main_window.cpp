@@ -4,6 +4,7 @@
 
 #include "app/gui/force_plot.h"
 #include "mesh/io.h"
+#include "render/lesion_view.h"
 #include "render/probe_view.h"
 #include "render/scene.h"
 #include "render/surface_view.h"
@@ -22,6 +23,7 @@
 #include <QFileDialog>
 #include <QFileInfo>
 #include <QFormLayout>
+#include <QGroupBox>
 #include <QHBoxLayout>
 #include <QImage>
 #include <QLabel>
@@ -31,6 +33,8 @@
 #include <QMouseEvent>
 #include <QLineEdit>
 #include <QPushButton>
+#include <QScrollArea>
+#include <QScrollBar>
 #include <QSettings>
 #include <QSpinBox>
 #include <QStackedWidget>
@@ -53,6 +57,7 @@ VTK_MODULE_INIT(vtkInteractionStyle);
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace palpa::app {
 namespace {
@@ -80,6 +85,9 @@ void configure_application_defaults() {
 struct MainWindow::Vtk {
   vtkNew<vtkGenericOpenGLRenderWindow> window;
   vtkNew<vtkRenderer> renderer;
+  // Shown lesions, drawn translucent over the organ (they lie inside it,
+  // where the opaque surface would hide them) with the organ's camera.
+  vtkNew<vtkRenderer> inclusions;
   vtkNew<vtkInteractorStyleTrackballCamera> style;
 };
 
@@ -101,7 +109,10 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
 MainWindow::~MainWindow() {
   frame_timer_.stop();
   // Probe and surface views go before the render window releases GL state.
-  if (vtk_) vtk_->renderer->RemoveAllViewProps();
+  if (vtk_) {
+    vtk_->renderer->RemoveAllViewProps();
+    vtk_->inclusions->RemoveAllViewProps();
+  }
   probe_views_.clear();
   hover_view_.reset();
   view_.reset();
@@ -132,6 +143,11 @@ void MainWindow::build_ui() {
   viewport_->setRenderWindow(vtk_->window.Get());
   render::style_renderer(vtk_->renderer);
   vtk_->window->AddRenderer(vtk_->renderer);
+  vtk_->window->SetNumberOfLayers(2);
+  vtk_->inclusions->SetLayer(1);
+  vtk_->inclusions->InteractiveOff();
+  vtk_->inclusions->SetActiveCamera(vtk_->renderer->GetActiveCamera());
+  vtk_->window->AddRenderer(vtk_->inclusions);
   viewport_->interactor()->SetInteractorStyle(vtk_->style);
   viewport_->setMouseTracking(true);
   viewport_->installEventFilter(this);
@@ -224,9 +240,36 @@ void MainWindow::build_ui() {
   readouts_dock->setWidget(readouts);
   addDockWidget(Qt::RightDockWidgetArea, readouts_dock);
 
+  // Task dock: a scenario's instructions (hidden without one).
+  task_text_ = new QLabel;
+  task_text_->setObjectName("taskText");
+  task_text_->setWordWrap(true);
+  task_text_->setTextFormat(Qt::RichText);
+  task_text_->setAlignment(Qt::AlignTop | Qt::AlignLeft);
+  task_text_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  task_dock_ = new QDockWidget("Task", this);
+  task_dock_->setObjectName("taskDock");
+  auto* task_scroll = new QScrollArea;
+  task_scroll->setWidgetResizable(true);
+  task_scroll->setFrameShape(QFrame::NoFrame);
+  task_scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
+  task_scroll->setMinimumHeight(160);
+  task_scroll->setWidget(task_text_);
+  task_dock_->setWidget(task_scroll);
+  addDockWidget(Qt::LeftDockWidgetArea, task_dock_);
+  task_dock_->hide();
+
   auto* material_dock = new QDockWidget("Material", this);
   material_dock->setObjectName("materialDock");
-  material_dock->setWidget(build_material_panel());
+  auto* material_scroll = new QScrollArea;
+  material_scroll->setWidgetResizable(true);
+  material_scroll->setFrameShape(QFrame::NoFrame);
+  material_scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
+  QWidget* panel = build_material_panel();
+  material_scroll->setMinimumWidth(std::max(360, panel->sizeHint().width() +
+                                                     material_scroll->verticalScrollBar()->sizeHint().width() + 8));
+  material_scroll->setWidget(panel);
+  material_dock->setWidget(material_scroll);
   addDockWidget(Qt::LeftDockWidgetArea, material_dock);
 
   hover_view_ = std::make_unique<render::ProbeView>();
@@ -235,11 +278,16 @@ void MainWindow::build_ui() {
   statusBar()->showMessage("Ready");
 }
 
-// The material panel: the core's parameters, applied to the whole organ at once.
+// The material panel: a tissue in kPa (Hertz contact at the probe tip), the
+// probe, and the advanced linear local model in N/m; applied to the whole
+// organ at once.
 QWidget* MainWindow::build_material_panel() {
   auto* w = new QWidget;
-  auto* form = new QFormLayout(w);
-  auto spin = [&](const char* name, double lo, double hi, double step, int decimals, const char* suffix) {
+  auto* outer = new QVBoxLayout(w);
+  auto* form = new QFormLayout;
+  outer->addLayout(form);
+  auto spin = [&](const char* name, double lo, double hi, double step, int decimals, const char* suffix,
+                  const QString& tip) {
     auto* s = new QDoubleSpinBox;
     s->setObjectName(name);
     s->setRange(lo, hi);
@@ -247,51 +295,126 @@ QWidget* MainWindow::build_material_panel() {
     s->setDecimals(decimals);
     s->setSuffix(suffix);
     s->setKeyboardTracking(false);
+    s->setToolTip(tip);
     connect(s, qOverload<double>(&QDoubleSpinBox::valueChanged), this, &MainWindow::apply_material);
     return s;
   };
-  model_box_ = new QComboBox;
-  model_box_->setObjectName("modelBox");
-  model_box_->addItems({"Linear (eq. 1)", "Exponential (stiffening)", "Viscoelastic (relaxing)"});
-  connect(model_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_material);
+
+  // With a scenario: what editing here does to its tissue map, and the undo.
+  scenario_note_ = new QLabel;
+  scenario_note_->setObjectName("scenarioMaterialNote");
+  scenario_note_->setWordWrap(true);
+  scenario_note_->setStyleSheet("QLabel { color: #a05a00; }");
+  scenario_note_->hide();
+  outer->insertWidget(0, scenario_note_);
+  restore_map_ = new QPushButton("Restore the scenario's tissues");
+  restore_map_->setObjectName("restoreTissueMap");
+  restore_map_->setToolTip("Undo the material edit: the scenario's tissue map (its tissues and regions) again");
+  restore_map_->hide();
+  connect(restore_map_, &QPushButton::clicked, this, &MainWindow::restore_tissue_map);
+  form->addRow(restore_map_);
+
+  // The tissue: a preset or values of its own.
+  preset_box_ = new QComboBox;
+  preset_box_->setObjectName("presetBox");
+  preset_box_->setToolTip("Published tissue values (data/tissues.json); hover an entry for its source");
+  preset_box_->addItem("Custom", QString());
+  try {
+    for (const tissue::Preset& p : tissue::presets()) {
+      preset_box_->addItem(QString::fromStdString(p.tissue.name.empty() ? p.key : p.tissue.name),
+                           QString::fromStdString(p.key));
+      preset_box_->setItemData(preset_box_->count() - 1, QString::fromStdString(p.tissue.source), Qt::ToolTipRole);
+    }
+  } catch (const std::exception& e) {
+    preset_box_->setToolTip(QString("No presets: %1").arg(e.what()));
+  }
+  connect(preset_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_preset);
+  const MaterialSettings d;
+  youngs_kpa_ = spin("youngsModulus", 0.01, 10000, 0.5, 2, " kPa",
+                     "Young's modulus E of the tissue, kPa (Hertz contact: F = 4/3 E/(1-nu^2) sqrt(R) d^1.5)");
+  poisson_ = spin("poisson", 0, 0.499, 0.01, 3, "", "Poisson ratio nu, dimensionless, 0 .. 0.499 (soft tissue ~0.49)");
+  damping_ratio_ = spin("dampingRatio", 0, 10, 0.1, 2, "",
+                        "Damping ratio zeta of the local model at 5 mm indentation, dimensionless (1: critically damped)");
+  relaxation_s_ = spin("relaxationTime", 0, 100, 0.1, 2, " s",
+                       "Viscoelastic relaxation time tau, s (0: elastic): a held press relaxes with this time constant");
+  relaxation_fraction_ = spin("relaxationFraction", 0, 10, 0.05, 2, "",
+                              "Extra force of a quick press, fraction of the relaxed force (used when tau > 0)");
+  stiffening_mm_ = spin("stiffening", 0, 10, 0.01, 3, " /mm",
+                        "Stiffening, 1/mm: the force is multiplied by (1 + stiffening * depth); 0: pure Hertz");
+  tip_radius_mm_ = spin("tipRadius", 0.5, 50, 0.5, 1, " mm", "Radius R of the probe tip, mm (8 mm: a fingertip)");
+  youngs_kpa_->setValue(d.tissue.youngs_modulus * 1e-3);
+  poisson_->setValue(d.tissue.poisson);
+  damping_ratio_->setValue(d.tissue.damping_ratio);
+  relaxation_s_->setValue(d.tissue.relaxation_time);
+  relaxation_fraction_->setValue(d.tissue.relaxation_fraction);
+  stiffening_mm_->setValue(d.tissue.stiffening * 1e-3);
+  tip_radius_mm_->setValue(d.tip_radius * 1e3);
+  form->addRow("Preset", preset_box_);
+  form->addRow("Young's modulus", youngs_kpa_);
+  form->addRow("Poisson ratio", poisson_);
+  form->addRow("Damping ratio", damping_ratio_);
+  form->addRow("Relaxation time", relaxation_s_);
+  form->addRow("Relaxation fraction", relaxation_fraction_);
+  form->addRow("Stiffening", stiffening_mm_);
+  form->addRow("Tip radius", tip_radius_mm_);
+
+  // The contact's spread and eq. (4).
   shape_box_ = new QComboBox;
   shape_box_->setObjectName("shapeBox");
   shape_box_->addItems({"Gaussian", "Wendland C2", "Volume conserving"});
   shape_box_->setCurrentIndex(1);
+  shape_box_->setToolTip("Shape function: how the dent spreads around the contact");
   connect(shape_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_material);
-  stiffness_ = spin("stiffness", 1, 1e5, 10, 1, " N/m");
-  damping_ = spin("damping", 0.01, 1e3, 0.5, 2, " N·s/m");
-  mass_g_ = spin("mass", 0.01, 1e3, 0.1, 2, " g");
-  radius_mm_ = spin("radius", 1, 200, 1, 1, " mm");
-  friction_ = spin("friction", 0, 2, 0.05, 2, "");
-  max_force_ = spin("maxForce", 0.1, 100, 0.5, 1, " N");
-  const MaterialSettings d;
-  stiffness_->setValue(d.stiffness);
-  damping_->setValue(d.damping);
-  mass_g_->setValue(d.mass * 1e3);
+  radius_mm_ = spin("radius", 1, 200, 1, 1, " mm", "Support radius of the shape function, mm (also the deepest press)");
+  friction_ = spin("friction", 0, 2, 0.05, 2, "", "Friction coefficient K of eq. (4), dimensionless");
+  max_force_ = spin("maxForce", 0.1, 100, 0.5, 1, " N", "Largest force the model asks for, N");
   radius_mm_->setValue(d.radius * 1e3);
   friction_->setValue(d.friction);
   max_force_->setValue(d.max_force);
-  form->addRow("Local model", model_box_);
-  form->addRow("Stiffness", stiffness_);
-  form->addRow("Damping", damping_);
-  form->addRow("Mass per vertex", mass_g_);
   form->addRow("Shape function", shape_box_);
   form->addRow("Radius", radius_mm_);
   form->addRow("Friction K", friction_);
   form->addRow("Max force", max_force_);
+
+  // Advanced: the local model's own parameters instead of a tissue.
+  linear_group_ = new QGroupBox("Advanced: local model in N/m instead of the tissue");
+  linear_group_->setObjectName("linearModel");
+  linear_group_->setCheckable(true);
+  linear_group_->setChecked(false);
+  linear_group_->setToolTip("Set the per-vertex local model directly (stiffness N/m, damping N s/m, mass g) "
+                            "instead of a tissue in kPa");
+  connect(linear_group_, &QGroupBox::toggled, this, &MainWindow::apply_material);
+  auto* linear = new QFormLayout(linear_group_);
+  model_box_ = new QComboBox;
+  model_box_->setObjectName("modelBox");
+  model_box_->addItems({"Linear (eq. 1)", "Exponential (stiffening)", "Viscoelastic (relaxing)"});
+  model_box_->setToolTip("Local model kind of every vertex");
+  connect(model_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_material);
+  stiffness_ = spin("stiffness", 1, 1e5, 10, 1, " N/m", "Stiffness k of every vertex's local model, N/m");
+  damping_ = spin("damping", 0.01, 1e3, 0.5, 2, " N·s/m", "Damping b of every vertex's local model, N s/m");
+  mass_g_ = spin("mass", 0.01, 1e3, 0.1, 2, " g", "Mass m of every vertex's local model, g");
+  stiffness_->setValue(d.stiffness);
+  damping_->setValue(d.damping);
+  mass_g_->setValue(d.mass * 1e3);
+  linear->addRow("Local model", model_box_);
+  linear->addRow("Stiffness", stiffness_);
+  linear->addRow("Damping", damping_);
+  linear->addRow("Mass per vertex", mass_g_);
+  outer->addWidget(linear_group_);
+  outer->addStretch(1);
   return w;
 }
 
 void MainWindow::build_menus() {
   QMenu* file = menuBar()->addMenu("&File");
-  QAction* open = file->addAction("&Open organ...", this, [this] {
+  QAction* open = file->addAction("&Open...", this, [this] {
     const QString path = QFileDialog::getOpenFileName(
-        this, "Open organ mesh", QString(),
-        "Meshes (*.obj *.stl *.ply *.off *.vtk *.vtp);;All files (*)");
-    if (!path.isEmpty()) open_mesh(path);
+        this, "Open an organ mesh or a scenario", QString(),
+        "Organs and scenarios (*.obj *.stl *.ply *.off *.vtk *.vtp *.json);;"
+        "Scenarios (*.json);;Meshes (*.obj *.stl *.ply *.off *.vtk *.vtp);;All files (*)");
+    if (!path.isEmpty()) open_file(path);
   });
-  open->setShortcut(QKeySequence::Open);
+  open->setToolTip("Open an organ mesh (OBJ, STL, PLY, OFF, VTK, VTP) or a scenario file (.json)");
   file->addAction("Open &default organ", this, &MainWindow::open_default_organ);
   recent_menu_ = file->addMenu("Open &recent");
   file->addSeparator();
@@ -304,6 +427,13 @@ void MainWindow::build_menus() {
   QAction* quit = file->addAction("&Quit", this, &QWidget::close);
   quit->setShortcut(QKeySequence::Quit);
 
+  QMenu* edit = menuBar()->addMenu("&Edit");
+  undo_material_ = edit->addAction("&Undo material edit (the scenario's tissues again)", this,
+                                   &MainWindow::restore_tissue_map);
+  undo_material_->setObjectName("undoMaterialEdit");
+  undo_material_->setShortcut(QKeySequence::Undo);
+  undo_material_->setEnabled(false);
+
   QMenu* probe = menuBar()->addMenu("&Probe");
   probe->addAction("&Add probe", this, &MainWindow::add_probe)->setShortcut(QKeySequence("Ctrl+P"));
   probe->addAction("&Remove probe", this, &MainWindow::remove_selected_probe)->setShortcut(QKeySequence::Delete);
@@ -315,6 +445,22 @@ void MainWindow::build_menus() {
   devices->addAction("&Add device probe...", this, &MainWindow::add_device_dialog);
   devices->addAction("&Re-enable selected device", this, &MainWindow::reenable_selected);
 
+  QMenu* view = menuBar()->addMenu("&View");
+  force_arrows_action_ = view->addAction("Show &force arrows");
+  force_arrows_action_->setObjectName("showForceArrows");
+  force_arrows_action_->setCheckable(true);
+  force_arrows_action_->setChecked(true);
+  force_arrows_action_->setToolTip("Draw the force on each probe as an arrow (a scenario's picture shows none "
+                                   "unless its lesions are revealed)");
+  connect(force_arrows_action_, &QAction::toggled, this, [this] { save_settings(); });
+  // Not kept between runs: a trainee's session never starts revealed.
+  reveal_action_ = view->addAction("&Reveal lesions (debriefing)");
+  reveal_action_->setObjectName("revealLesions");
+  reveal_action_->setCheckable(true);
+  reveal_action_->setToolTip("Also draw the scenario's hidden and after-exam lesions and the force arrows "
+                             "(for the debriefing)");
+  connect(reveal_action_, &QAction::toggled, this, [this] { rebuild_lesion_views(); });
+
   QMenu* sim = menuBar()->addMenu("&Simulation");
   sim->addAction("&Reset", this, &MainWindow::reset)->setShortcut(QKeySequence("Ctrl+R"));
 }
@@ -325,6 +471,16 @@ void MainWindow::load_settings() {
   QSettings s;
   loading_settings_ = true;
   const MaterialSettings d;
+  // The tissue (kPa, mm as shown), the law and the preset named.
+  linear_group_->setChecked(s.value("tissue/advanced_linear", false).toBool());
+  youngs_kpa_->setValue(s.value("tissue/youngs_modulus_kpa", d.tissue.youngs_modulus * 1e-3).toDouble());
+  poisson_->setValue(s.value("tissue/poisson", d.tissue.poisson).toDouble());
+  damping_ratio_->setValue(s.value("tissue/damping_ratio", d.tissue.damping_ratio).toDouble());
+  relaxation_s_->setValue(s.value("tissue/relaxation_time_s", d.tissue.relaxation_time).toDouble());
+  relaxation_fraction_->setValue(s.value("tissue/relaxation_fraction", d.tissue.relaxation_fraction).toDouble());
+  stiffening_mm_->setValue(s.value("tissue/stiffening_per_mm", d.tissue.stiffening * 1e-3).toDouble());
+  tip_radius_mm_->setValue(s.value("tissue/tip_radius_mm", d.tip_radius * 1e3).toDouble());
+  preset_box_->setCurrentIndex(std::max(0, preset_box_->findData(s.value("tissue/preset", QString()).toString())));
   model_box_->setCurrentIndex(std::clamp(s.value("material/model", 0).toInt(), 0, 2));
   shape_box_->setCurrentIndex(std::clamp(s.value("material/shape", 1).toInt(), 0, 2));
   stiffness_->setValue(s.value("material/stiffness", d.stiffness).toDouble());
@@ -335,6 +491,7 @@ void MainWindow::load_settings() {
   max_force_->setValue(s.value("material/max_force", d.max_force).toDouble());
   unit_box_->setCurrentIndex(std::clamp(s.value("organ/unit", 0).toInt(), 0, 3));
   hold_action_->setChecked(s.value("probe/hold", true).toBool());
+  force_arrows_action_->setChecked(s.value("view/force_arrows", true).toBool());
   recent_ = s.value("recentFiles").toStringList();
   restoreGeometry(s.value("window/geometry").toByteArray());
   restoreState(s.value("window/state").toByteArray());
@@ -345,6 +502,15 @@ void MainWindow::load_settings() {
 
 void MainWindow::save_settings() const {
   QSettings s;
+  s.setValue("tissue/advanced_linear", linear_group_->isChecked());
+  s.setValue("tissue/youngs_modulus_kpa", youngs_kpa_->value());
+  s.setValue("tissue/poisson", poisson_->value());
+  s.setValue("tissue/damping_ratio", damping_ratio_->value());
+  s.setValue("tissue/relaxation_time_s", relaxation_s_->value());
+  s.setValue("tissue/relaxation_fraction", relaxation_fraction_->value());
+  s.setValue("tissue/stiffening_per_mm", stiffening_mm_->value());
+  s.setValue("tissue/tip_radius_mm", tip_radius_mm_->value());
+  s.setValue("tissue/preset", preset_box_->currentData().toString());
   s.setValue("material/model", model_box_->currentIndex());
   s.setValue("material/shape", shape_box_->currentIndex());
   s.setValue("material/stiffness", stiffness_->value());
@@ -355,6 +521,7 @@ void MainWindow::save_settings() const {
   s.setValue("material/max_force", max_force_->value());
   s.setValue("organ/unit", unit_box_->currentIndex());
   s.setValue("probe/hold", hold_action_->isChecked());
+  s.setValue("view/force_arrows", force_arrows_action_->isChecked());
   s.setValue("recentFiles", recent_);
   s.setValue("window/geometry", saveGeometry());
   s.setValue("window/state", saveState());
@@ -380,6 +547,7 @@ void MainWindow::clear_error() {
 
 QString MainWindow::error_text() const { return error_banner_->isVisible() ? error_banner_->text() : QString(); }
 QString MainWindow::facts_text() const { return facts_->text(); }
+QString MainWindow::task_text() const { return task_text_->text(); }
 
 // ---------------------------------------------------------------------------
 // Organs.
@@ -405,6 +573,37 @@ bool MainWindow::open_mesh(const QString& path) {
   return true;
 }
 
+bool MainWindow::can_open(const QString& path) {
+  static const QStringList kSuffixes = {"json", "obj", "stl", "ply", "off", "vtk", "vtp", "trian"};
+  return kSuffixes.contains(QFileInfo(path).suffix().toLower());
+}
+
+bool MainWindow::is_scenario_file(const QString& path) { return QFileInfo(path).suffix().toLower() == "json"; }
+
+bool MainWindow::open_file(const QString& path) { return is_scenario_file(path) ? open_scenario(path) : open_mesh(path); }
+
+// A scenario: read, validated and resolved (organ, lesions, tissue map,
+// field) before anything in the window changes.
+bool MainWindow::open_scenario(const QString& path) {
+  const QFileInfo info(path);
+  if (!info.exists()) {
+    recent_.removeAll(path);
+    rebuild_recent_menu();
+    show_error(QString("Could not open %1: the file does not exist (any more)").arg(path));
+    return false;
+  }
+  try {
+    install_scenario(Workbench::resolve_scenario(path.toStdString()));
+  } catch (const std::exception& e) {
+    show_error(QString("Could not open %1: %2").arg(info.fileName(), QString::fromStdString(e.what())));
+    return false;
+  }
+  add_recent(info.absoluteFilePath());
+  clear_error();
+  statusBar()->showMessage("Opened the scenario " + info.fileName(), 5000);
+  return true;
+}
+
 void MainWindow::open_default_organ() {
   try {
     install_organ(mesh::load_default_organ());
@@ -419,9 +618,23 @@ void MainWindow::open_default_organ() {
 void MainWindow::install_organ(mesh::Organ organ) {
   auto view = std::make_unique<render::SurfaceView>(organ.mesh);
   workbench_.set_organ(std::move(organ));  // all or nothing
+  show_new_organ(std::move(view));
+}
+
+void MainWindow::install_scenario(scenario::Resolved resolved) {
+  auto view = std::make_unique<render::SurfaceView>(resolved.organ.mesh);
+  workbench_.set_scenario(std::move(resolved));  // all or nothing
+  show_new_organ(std::move(view));
+}
+
+// The window after the workbench took a new organ or scenario: the view,
+// the shown lesions, the probes' glyphs, the facts, the task, the panel.
+void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
   if (view_) vtk_->renderer->RemoveActor(view_->actor());
   view_ = std::move(view);
   vtk_->renderer->AddActor(view_->actor());
+  frame_time_ = workbench_.loop_time();
+  rebuild_lesion_views();
   if (workbench_.probes().empty()) {
     try {
       workbench_.add_probe();
@@ -457,6 +670,8 @@ void MainWindow::install_organ(mesh::Organ organ) {
   if (workbench_.organ().unit_guessed)
     text += QString("<br>file unit guessed: %1 m").arg(workbench_.organ().unit_m);
   facts_->setText(text);
+  show_task();
+  sync_material_panel();
 
   // Camera on the whole organ.
   render::frame_camera(vtk_->renderer, view_->bounds(), Vec3(0.3, -1.0, 0.8), Vec3::UnitZ());
@@ -474,21 +689,62 @@ void MainWindow::add_recent(const QString& path) {
 void MainWindow::rebuild_recent_menu() {
   recent_menu_->clear();
   for (const QString& path : recent_)
-    recent_menu_->addAction(QFileInfo(path).fileName(), this, [this, path] { open_mesh(path); })->setToolTip(path);
+    recent_menu_->addAction(QFileInfo(path).fileName(), this, [this, path] { open_file(path); })->setToolTip(path);
   recent_menu_->setEnabled(!recent_.isEmpty());
 }
 
+// Drag and drop: an organ mesh or a scenario file.
+QString MainWindow::droppable_file(const QMimeData* data) {
+  if (!data || !data->hasUrls()) return {};
+  for (const QUrl& url : data->urls())
+    if (url.isLocalFile() && can_open(url.toLocalFile())) return url.toLocalFile();
+  return {};
+}
+
+bool MainWindow::drop_file(const QMimeData* data) {
+  const QString path = droppable_file(data);
+  return !path.isEmpty() && open_file(path);
+}
+
 void MainWindow::dragEnterEvent(QDragEnterEvent* event) {
-  if (event->mimeData()->hasUrls() && !event->mimeData()->urls().isEmpty() &&
-      event->mimeData()->urls().first().isLocalFile())
-    event->acceptProposedAction();
+  if (!droppable_file(event->mimeData()).isEmpty()) event->acceptProposedAction();
 }
 
 void MainWindow::dropEvent(QDropEvent* event) {
-  const auto urls = event->mimeData()->urls();
-  if (urls.isEmpty() || !urls.first().isLocalFile()) return;
+  if (droppable_file(event->mimeData()).isEmpty()) return;
   event->acceptProposedAction();
-  open_mesh(urls.first().toLocalFile());
+  drop_file(event->mimeData());
+}
+
+// The scenario's task (instructions, limits, what to report) in its dock,
+// and the window title naming the scenario or the organ.
+void MainWindow::show_task() {
+  const scenario::Resolved* sc = workbench_.scenario();
+  if (!sc) {
+    task_text_->clear();
+    task_dock_->hide();
+    setWindowTitle(QString("Palpa - %1").arg(QString::fromStdString(workbench_.organ().name)));
+    return;
+  }
+  const scenario::Scenario& s = sc->scenario;
+  const QString file = QString::fromStdString(s.file.filename().string());
+  const QString title = QString::fromStdString(s.title.empty() ? s.file.stem().string() : s.title);
+  setWindowTitle(QString("Palpa - %1 (%2)").arg(title, file));
+  QStringList report;
+  if (s.task.report.position) report << "position";
+  if (s.task.report.size) report << "size";
+  if (s.task.report.consistency) report << "consistency";
+  QString html = QString("<h3>%1</h3>").arg(title.toHtmlEscaped());
+  if (!s.description.empty())
+    html += QString("<p>%1</p>").arg(QString::fromStdString(s.description).toHtmlEscaped());
+  html += QString("<p><b>Task:</b> %1</p>").arg(QString::fromStdString(s.task.instructions).toHtmlEscaped());
+  html += "<p>";
+  if (s.task.time_limit > 0) html += QString("Time limit: %1 s<br>").arg(s.task.time_limit);
+  html += QString("Force limit: %1 N").arg(s.task.force_limit);
+  if (!report.isEmpty()) html += QString("<br>Report for each lesion found: %1").arg(report.join(", "));
+  html += "</p>";
+  task_text_->setText(html);
+  task_dock_->show();
 }
 
 bool MainWindow::save_screenshot(const QString& path) {
@@ -503,9 +759,54 @@ bool MainWindow::save_screenshot(const QString& path) {
 
 // ---------------------------------------------------------------------------
 // Material panel -> workbench, immediately.
+namespace {
+
+// Same numbers (the name and source aside).
+bool same_values(const tissue::Tissue& a, const tissue::Tissue& b) {
+  return a.youngs_modulus == b.youngs_modulus && a.poisson == b.poisson && a.damping_ratio == b.damping_ratio &&
+         a.relaxation_time == b.relaxation_time && a.relaxation_fraction == b.relaxation_fraction &&
+         a.stiffening == b.stiffening;
+}
+
+const tissue::Preset* preset_at(const QComboBox* box) {
+  const std::string key = box->currentData().toString().toStdString();
+  try {
+    return key.empty() ? nullptr : tissue::find_preset(key);
+  } catch (const std::exception&) {
+    return nullptr;
+  }
+}
+
+}  // namespace
+
+// The tissue as the panel shows it (kPa and mm to SI).
+tissue::Tissue MainWindow::panel_tissue() const {
+  tissue::Tissue t;
+  if (const tissue::Preset* p = preset_at(preset_box_)) t = p->tissue;
+  else t.name = "custom";
+  t.youngs_modulus = youngs_kpa_->value() * 1e3;
+  t.poisson = poisson_->value();
+  t.damping_ratio = damping_ratio_->value();
+  t.relaxation_time = relaxation_s_->value();
+  t.relaxation_fraction = relaxation_fraction_->value();
+  t.stiffening = stiffening_mm_->value() * 1e3;
+  return t;
+}
+
 void MainWindow::apply_material() {
   if (loading_settings_) return;
-  MaterialSettings m;
+  MaterialSettings m = workbench_.material();
+  m.law = linear_group_->isChecked() ? MaterialLaw::Linear : MaterialLaw::Hertz;
+  m.tissue = panel_tissue();
+  // Values edited away from the preset: a custom tissue.
+  if (const tissue::Preset* p = preset_at(preset_box_); p && !same_values(p->tissue, m.tissue)) {
+    const QSignalBlocker block(preset_box_);
+    preset_box_->setCurrentIndex(0);
+    preset_box_->setToolTip("A tissue of its own (no preset)");
+    m.tissue.name = "custom";
+    m.tissue.source.clear();
+  }
+  m.tip_radius = tip_radius_mm_->value() * 1e-3;
   m.model = static_cast<deform::LocalModelKind>(model_box_->currentIndex());
   m.shape = static_cast<deform::ShapeKind>(shape_box_->currentIndex());
   m.stiffness = stiffness_->value();
@@ -514,15 +815,120 @@ void MainWindow::apply_material() {
   m.radius = radius_mm_->value() * 1e-3;
   m.friction = friction_->value();
   m.max_force = max_force_->value();
+  for (QWidget* t : tissue_widgets()) t->setEnabled(m.law == MaterialLaw::Hertz);
   try {
     workbench_.set_material(m);  // edits of the running loop: the dent and the probes stay
   } catch (const std::exception& e) {
     show_error(QString("Could not apply the material: %1").arg(e.what()));
     return;
   }
+  update_scenario_note();
   need_full_sync_ = true;
   pull_surface();
   save_settings();
+}
+
+// A preset fills in the tissue's values, then applies them.
+void MainWindow::apply_preset() {
+  if (loading_settings_) return;
+  if (const tissue::Preset* p = preset_at(preset_box_)) {
+    const tissue::Tissue& t = p->tissue;
+    for (QDoubleSpinBox* b : {youngs_kpa_, poisson_, damping_ratio_, relaxation_s_, relaxation_fraction_,
+                              stiffening_mm_})
+      b->blockSignals(true);
+    youngs_kpa_->setValue(t.youngs_modulus * 1e-3);
+    poisson_->setValue(t.poisson);
+    damping_ratio_->setValue(t.damping_ratio);
+    relaxation_s_->setValue(t.relaxation_time);
+    relaxation_fraction_->setValue(t.relaxation_fraction);
+    stiffening_mm_->setValue(t.stiffening * 1e-3);
+    for (QDoubleSpinBox* b : {youngs_kpa_, poisson_, damping_ratio_, relaxation_s_, relaxation_fraction_,
+                              stiffening_mm_})
+      b->blockSignals(false);
+    preset_box_->setToolTip(QString::fromStdString(t.source));
+  }
+  apply_material();
+}
+
+std::vector<QWidget*> MainWindow::tissue_widgets() const {
+  return {preset_box_, youngs_kpa_, poisson_, damping_ratio_, relaxation_s_, relaxation_fraction_, stiffening_mm_,
+          tip_radius_mm_};
+}
+
+// The panel shows the workbench's settings (after a scenario set them),
+// without applying anything.
+void MainWindow::sync_material_panel() {
+  const MaterialSettings& m = workbench_.material();
+  const bool was_loading = loading_settings_;
+  loading_settings_ = true;
+  linear_group_->setChecked(m.law == MaterialLaw::Linear);
+  youngs_kpa_->setValue(m.tissue.youngs_modulus * 1e-3);
+  poisson_->setValue(m.tissue.poisson);
+  damping_ratio_->setValue(m.tissue.damping_ratio);
+  relaxation_s_->setValue(m.tissue.relaxation_time);
+  relaxation_fraction_->setValue(m.tissue.relaxation_fraction);
+  stiffening_mm_->setValue(m.tissue.stiffening * 1e-3);
+  tip_radius_mm_->setValue(m.tip_radius * 1e3);
+  // The preset with these values (and this source, when several have them).
+  int by_values = 0, by_source = 0;
+  try {
+    const auto& presets = tissue::presets();
+    for (std::size_t k = 0; k < presets.size(); ++k) {
+      if (!same_values(presets[k].tissue, m.tissue)) continue;
+      if (by_values == 0) by_values = static_cast<int>(k) + 1;
+      if (by_source == 0 && presets[k].tissue.source == m.tissue.source) by_source = static_cast<int>(k) + 1;
+    }
+  } catch (const std::exception&) {
+  }
+  const int preset = by_source != 0 ? by_source : by_values;
+  preset_box_->setCurrentIndex(preset);
+  shape_box_->setCurrentIndex(static_cast<int>(m.shape));
+  radius_mm_->setValue(m.radius * 1e3);
+  friction_->setValue(m.friction);
+  max_force_->setValue(m.max_force);
+  model_box_->setCurrentIndex(static_cast<int>(m.model));
+  stiffness_->setValue(m.stiffness);
+  damping_->setValue(m.damping);
+  mass_g_->setValue(m.mass * 1e3);
+  for (QWidget* t : tissue_widgets()) t->setEnabled(m.law == MaterialLaw::Hertz);
+  loading_settings_ = was_loading;
+  update_scenario_note();
+}
+
+// With a scenario: say what a material edit does to its tissue map.
+void MainWindow::update_scenario_note() {
+  const scenario::Resolved* sc = workbench_.scenario();
+  const bool replaced = sc && !workbench_.tissue_map_in_force();
+  if (!sc) {
+    scenario_note_->hide();
+  } else {
+    const auto& s = sc->scenario;
+    scenario_note_->setText(
+        replaced ? QString("The scenario's tissue map is replaced: the tissue below now holds for the whole organ. "
+                           "Edit > Undo material edit (or the button) restores the scenario's tissues.")
+                 : QString("The scenario sets its own tissue map (%1 tissue(s), %2 region(s)); shown here is its "
+                           "base tissue '%3'. Editing the tissue replaces the map with one tissue for the whole "
+                           "organ (Edit > Undo material edit restores it).")
+                       .arg(s.tissues.size())
+                       .arg(s.regions.size())
+                       .arg(QString::fromStdString(s.base_tissue)));
+    scenario_note_->show();
+  }
+  restore_map_->setVisible(replaced);
+  undo_material_->setEnabled(replaced);
+}
+
+void MainWindow::restore_tissue_map() {
+  try {
+    workbench_.restore_tissue_map();
+  } catch (const std::exception& e) {
+    show_error(QString("Could not restore the scenario's tissues: %1").arg(e.what()));
+    return;
+  }
+  sync_material_panel();
+  need_full_sync_ = true;
+  pull_surface();
+  statusBar()->showMessage("The scenario's tissue map is in force again", 5000);
 }
 
 // ---------------------------------------------------------------------------
@@ -679,7 +1085,26 @@ bool MainWindow::pick_at(const QPoint& pos, Vec3& rest_point, Vec3& rest_normal,
   const double dpr = viewport_->devicePixelRatioF();
   const double x = (pos.x() + 0.5) * dpr;
   const double y = (viewport_->height() - pos.y() - 0.5) * dpr;
-  const auto hit = view_->pick(vtk_->renderer, x, y);
+  const auto field = workbench_.field();
+  std::optional<render::SurfacePick> hit;
+  if (!field || !field->breathing.enabled) {
+    hit = view_->pick(vtk_->renderer, x, y);
+  } else {
+    // A breathing organ is drawn moved (the frame's transform): the pixel's
+    // ray goes into the organ frame (an affine map keeps it a line).
+    double near_w[4], far_w[4];
+    vtk_->renderer->SetDisplayPoint(x, y, 0.0);
+    vtk_->renderer->DisplayToWorld();
+    vtk_->renderer->GetWorldPoint(near_w);
+    vtk_->renderer->SetDisplayPoint(x, y, 1.0);
+    vtk_->renderer->DisplayToWorld();
+    vtk_->renderer->GetWorldPoint(far_w);
+    if (near_w[3] == 0 || far_w[3] == 0) return false;
+    const Vec3 a = field->to_organ(Vec3(near_w[0], near_w[1], near_w[2]) / near_w[3], frame_time_);
+    const Vec3 b = field->to_organ(Vec3(far_w[0], far_w[1], far_w[2]) / far_w[3], frame_time_);
+    hit = view_->pick_ray(a, b - a);
+    if (hit) hit->point = field->to_world(hit->point, frame_time_);
+  }
   if (!hit) return false;
   rest_point = hit->rest_point;
   rest_normal = hit->rest_normal;
@@ -794,6 +1219,7 @@ void MainWindow::advance() {
   const double now = clock_.nsecsElapsed() * 1e-9;
   workbench_.update();
   pull_surface();
+  apply_frame_transform();
   sync_probe_views();
   update_readouts();
   vtk_->window->Render();
@@ -805,6 +1231,35 @@ void MainWindow::advance() {
     frames_in_window_ = 0;
     rate_window_start_ = now;
   }
+}
+
+// Only shown lesions are drawn: hidden ones are found by feel, and the
+// after-exam ones wait for the debriefing (View > Reveal lesions draws both,
+// and the force arrows).
+void MainWindow::rebuild_lesion_views() {
+  for (auto& lv : lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
+  lesion_views_.clear();
+  if (const scenario::Resolved* sc = workbench_.scenario()) {
+    for (const tissue::Lesion& l : sc->lesions) {
+      if (l.visibility != tissue::Visibility::Shown && !reveal_action_->isChecked()) continue;
+      lesion_views_.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
+      lesion_views_.back()->add_to(vtk_->inclusions);
+    }
+  }
+  apply_frame_transform();
+}
+
+std::size_t MainWindow::lesions_drawn() const { return lesion_views_.size(); }
+
+// A breathing organ (and its shown lesions) drawn where it is at the loop's
+// time; the same time maps picks back into the organ frame.
+void MainWindow::apply_frame_transform() {
+  frame_time_ = workbench_.loop_time();
+  const auto field = workbench_.field();
+  if (!view_ || !field || !field->breathing.enabled) return;
+  const Eigen::Matrix4d organ_to_world = field->organ_to_world(frame_time_);
+  view_->set_transform(organ_to_world);
+  for (auto& lv : lesion_views_) lv->set_transform(organ_to_world);
 }
 
 // The stream entries the loop changed since the last frame (partial upload);
@@ -845,8 +1300,12 @@ void MainWindow::sync_probe_views() {
     pv->set_visible(p.placed);
     // Mouse probes point along their press normal; devices along the contact's force.
     const Vec3 axis = p.host_fed || p.output.force.norm() == 0 ? p.normal : Vec3(p.output.force.normalized());
-    if (p.placed)
-      pv->set_state(p.tip, axis, p.output.force, p.output.in_contact, p.id == workbench_.selected_id());
+    // A scenario's picture shows no force (an arrow's length would give its
+    // hidden lesions away: the trainee finds them by feel) unless revealed,
+    // as palpa render --scenario does; an organ's follows View > force arrows.
+    const bool arrows = workbench_.has_scenario() ? reveal_action_->isChecked() : force_arrows_action_->isChecked();
+    const Vec3 arrow = arrows ? p.output.force : Vec3::Zero();
+    if (p.placed) pv->set_state(p.tip, axis, arrow, p.output.in_contact, p.id == workbench_.selected_id());
   }
 }
 

@@ -19,7 +19,10 @@
 #include <vector>
 
 class QAction;
+class QGroupBox;
+class QMimeData;
 class QComboBox;
+class QDockWidget;
 class QDoubleSpinBox;
 class QLabel;
 class QListWidget;
@@ -29,6 +32,7 @@ class QVTKOpenGLNativeWidget;
 class vtkRenderer;
 
 namespace palpa::render {
+class EllipsoidView;
 class ProbeView;
 class SurfaceView;
 }  // namespace palpa::render
@@ -51,6 +55,27 @@ class MainWindow : public QMainWindow {
   /// Opens an organ mesh (unit from the Organ panel). On failure the error
   /// is shown in the window, the scene is unchanged and false is returned.
   bool open_mesh(const QString& path);
+  /// Opens a scenario file (docs/SCENARIO.md) and runs it: its organ, tissue
+  /// map, lesions (only shown ones drawn), pulses and breathing; its task in
+  /// the Task dock; the title names it. On failure the error (naming the
+  /// file) is shown, the scene and loop are unchanged and false is returned.
+  bool open_scenario(const QString& path);
+  /// open_scenario for a .json file, else open_mesh (File > Open, drops,
+  /// recent files, `palpa FILE`).
+  bool open_file(const QString& path);
+  /// Whether File > Open and drops take this file (a scenario or a mesh, by suffix).
+  static bool can_open(const QString& path);
+  static bool is_scenario_file(const QString& path);
+  /// The first local file of a drag that can be opened (empty: none), and
+  /// the drop handler: opens it; false when there is none or it fails.
+  static QString droppable_file(const QMimeData* data);
+  bool drop_file(const QMimeData* data);
+  /// Undoes a material edit on a scenario (its tissue map again).
+  void restore_tissue_map();
+  /// The Task dock's text (empty without a scenario).
+  QString task_text() const;
+  /// Lesions drawn now (shown ones; every one with View > Reveal lesions).
+  std::size_t lesions_drawn() const;
   /// Opens the bundled default organ.
   void open_default_organ();
   /// Writes the viewport to a PNG; on failure shows the error.
@@ -106,6 +131,16 @@ class MainWindow : public QMainWindow {
   void show_error(const QString& text);
   void clear_error();
   void install_organ(mesh::Organ organ);
+  void install_scenario(scenario::Resolved resolved);
+  void show_new_organ(std::unique_ptr<render::SurfaceView> view);
+  void show_task();
+  void apply_frame_transform();
+  void rebuild_lesion_views();
+  void apply_preset();
+  void sync_material_panel();
+  void update_scenario_note();
+  tissue::Tissue panel_tissue() const;
+  std::vector<QWidget*> tissue_widgets() const;
   void add_recent(const QString& path);
   void rebuild_recent_menu();
   void apply_material();
@@ -129,6 +164,8 @@ class MainWindow : public QMainWindow {
   std::unique_ptr<render::SurfaceView> view_;
   std::map<int, std::unique_ptr<render::ProbeView>> probe_views_;
   std::unique_ptr<render::ProbeView> hover_view_;
+  std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views_;  // shown lesions only
+  double frame_time_ = 0;  // s, the loop time the organ is drawn at (breathing)
 
   QLabel* error_banner_ = nullptr;
   QLabel* facts_ = nullptr;
@@ -144,6 +181,20 @@ class MainWindow : public QMainWindow {
   QLabel* warnings_label_ = nullptr;
   QPushButton* reenable_button_ = nullptr;
   ForcePlot* plot_ = nullptr;
+  QDockWidget* task_dock_ = nullptr;
+  QLabel* task_text_ = nullptr;
+  QLabel* scenario_note_ = nullptr;
+  QPushButton* restore_map_ = nullptr;
+  QAction* undo_material_ = nullptr;
+  QComboBox* preset_box_ = nullptr;
+  QDoubleSpinBox* youngs_kpa_ = nullptr;
+  QDoubleSpinBox* poisson_ = nullptr;
+  QDoubleSpinBox* damping_ratio_ = nullptr;
+  QDoubleSpinBox* relaxation_s_ = nullptr;
+  QDoubleSpinBox* relaxation_fraction_ = nullptr;
+  QDoubleSpinBox* stiffening_mm_ = nullptr;
+  QDoubleSpinBox* tip_radius_mm_ = nullptr;
+  QGroupBox* linear_group_ = nullptr;
   QComboBox* model_box_ = nullptr;
   QComboBox* shape_box_ = nullptr;
   QDoubleSpinBox* stiffness_ = nullptr;
@@ -154,6 +205,8 @@ class MainWindow : public QMainWindow {
   QDoubleSpinBox* max_force_ = nullptr;
   QMenu* recent_menu_ = nullptr;
   QAction* hold_action_ = nullptr;
+  QAction* force_arrows_action_ = nullptr;
+  QAction* reveal_action_ = nullptr;
   QStringList recent_;
 
   // Gesture state: pressing with a probe, where the press started.

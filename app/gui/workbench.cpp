@@ -20,6 +20,7 @@ double monotonic_now() {
 }  // namespace
 
 deform::Material to_material(const MaterialSettings& s) {
+  if (s.law == MaterialLaw::Hertz) return tissue::hertz_material(s.tissue, s.tip_radius, s.mass);
   deform::Material m;
   m.model = s.model;
   m.stiffness = s.stiffness;
@@ -39,12 +40,12 @@ Workbench::~Workbench() {
 
 // ---------------------------------------------------------------------------
 // The loop: one per organ, long-lived; every other change is a command.
-haptics::LoopConfig Workbench::loop_config() const {
+haptics::LoopConfig Workbench::loop_config(const MaterialSettings& m) const {
   haptics::LoopConfig c;
   c.core.rate_hz = kHapticRateHz;
   c.core.deform_rate_hz = kDeformRateHz;
-  c.core.force = force_params(material_);
-  c.core.shape = deform::ShapeFunction{material_.shape, material_.radius};
+  c.core.force = force_params(m);
+  c.core.shape = deform::ShapeFunction{m.shape, m.radius};
   return c;
 }
 
@@ -66,10 +67,12 @@ haptics::ProbeBinding Workbench::binding(const Probe& p) {
 std::unique_ptr<haptics::HapticLoop> Workbench::build_loop(const mesh::Organ& organ,
                                                            const deform::MaterialArrays& materials,
                                                            const haptics::LoopConfig& config,
-                                                           const std::vector<Probe>& probes) const {
+                                                           const std::vector<Probe>& probes,
+                                                           std::shared_ptr<const haptics::SessionModel> model) const {
   if (!organ.mesh) return nullptr;
   std::vector<haptics::ProbeBinding> bindings;
   for (const Probe& p : probes) bindings.push_back(binding(p));
+  if (model) return std::make_unique<haptics::HapticLoop>(std::move(model), materials, config, std::move(bindings));
   return std::make_unique<haptics::HapticLoop>(organ.mesh, materials, deform::SurfaceOptions{}, config,
                                                std::move(bindings));
 }
@@ -86,6 +89,7 @@ void Workbench::install(std::unique_ptr<haptics::HapticLoop> next, std::vector<P
     probes_[i].slot = i;
     probes_[i].output = {};
   }
+  loop_time_ = monotonic_now();  // the loop's clock: its first tick is about now
   for (const Probe& p : probes_) feed(p);
   if (!loop_) return;
   loop_->start();
@@ -95,8 +99,23 @@ void Workbench::install(std::unique_ptr<haptics::HapticLoop> next, std::vector<P
 
 bool Workbench::settled() const { return !loop_ || loop_->in_effect(last_ticket_); }
 
+std::shared_ptr<const tissue::TissueField> Workbench::field() const {
+  return scenario_ ? scenario_->field : nullptr;
+}
+
+Vec3 Workbench::to_world(const Vec3& x) const {
+  const auto f = field();
+  return f ? f->to_world(x, loop_time_) : x;
+}
+
 // Mouse probes: the tip pressed `depth` below the anchor, or held just above
-// it when lifted; an unplaced probe reports "not ready" (parked by the loop).
+// it when lifted (organ frame), carried where the breathing organ is at the
+// loop's time.
+Vec3 Workbench::fed_tip(const Probe& p) const {
+  return to_world(p.depth > 0 ? Vec3(p.anchor - p.depth * p.normal) : Vec3(p.anchor + kLiftClearance * p.normal));
+}
+
+// An unplaced probe reports "not ready" (parked by the loop).
 void Workbench::feed(const Probe& p) const {
   if (!p.host_fed || !p.dev) return;
   PalpaDeviceSample s{};
@@ -104,7 +123,7 @@ void Workbench::feed(const Probe& p) const {
   if (!p.placed) {
     s.status = PALPA_STATUS_NOT_READY;
   } else {
-    const Vec3 tip = p.depth > 0 ? Vec3(p.anchor - p.depth * p.normal) : Vec3(p.anchor + kLiftClearance * p.normal);
+    const Vec3 tip = fed_tip(p);
     for (int k = 0; k < 3; ++k) s.position[k] = tip[k];
     s.status = PALPA_STATUS_VALID;
   }
@@ -113,20 +132,103 @@ void Workbench::feed(const Probe& p) const {
 
 // ---------------------------------------------------------------------------
 // Organ and material.
-void Workbench::set_organ(mesh::Organ organ) {
-  // Build everything first, then swap (nothing changes on a throw).
-  auto materials = deform::MaterialArrays::uniform(organ.mesh->vertex_count(), to_material(material_));
+std::vector<Probe> Workbench::unplaced_probes() const {
   std::vector<Probe> next = probes_;
   for (Probe& p : next)
     if (p.host_fed) {
       p.placed = false;
       p.depth = 0;
     }
+  return next;
+}
+
+void Workbench::set_organ(mesh::Organ organ) {
+  // Build everything first, then swap (nothing changes on a throw).
+  auto materials = deform::MaterialArrays::uniform(organ.mesh->vertex_count(), to_material(material_));
+  std::vector<Probe> next = unplaced_probes();
   auto loop = build_loop(organ, materials, loop_config(), next);
   organ_ = std::move(organ);
+  scenario_.reset();
+  map_in_force_ = false;
   install(std::move(loop), next);
   epoch_ = monotonic_now();
   time_ = 0;
+}
+
+// A scenario: the loop on its session model (tissue map and field), the
+// settings from its base tissue and probe. Everything is built before
+// anything is replaced.
+void Workbench::set_scenario(scenario::Resolved resolved) {
+  if (!resolved.organ.mesh) throw std::invalid_argument("scenario: no organ");
+  const scenario::Scenario& sc = resolved.scenario;
+  if (resolved.base >= sc.tissues.size() || resolved.base >= resolved.tissues.size())
+    throw std::invalid_argument("scenario: base tissue index out of range");
+  MaterialSettings m = material_;
+  m.law = MaterialLaw::Hertz;
+  m.tissue = sc.tissues[resolved.base];
+  m.tip_radius = sc.probe.tip_radius;
+  m.mass = tissue::kDefaultVertexMass;
+  m.shape = sc.probe.shape.kind;
+  m.radius = sc.probe.shape.radius;
+  haptics::LoopConfig config = loop_config(m);
+  config.core = scenario::core_config(resolved, kHapticRateHz, kDeformRateHz);
+  m.shape = config.core.shape.kind;
+  m.radius = config.core.shape.radius;
+  m.friction = config.core.force.friction;
+  m.max_force = config.core.force.max_force;
+  auto model = scenario::session_model(resolved, config.core);
+  // The initial materials: the base tissue everywhere (the model's tissue map replaces them).
+  auto materials =
+      deform::MaterialArrays::uniform(resolved.organ.mesh->vertex_count(), resolved.tissues[resolved.base]);
+  std::vector<Probe> next = unplaced_probes();
+  auto loop = build_loop(resolved.organ, materials, config, next, std::move(model));
+  auto kept = std::make_unique<const scenario::Resolved>(std::move(resolved));
+  // Nothing below throws.
+  organ_ = kept->organ;
+  scenario_ = std::move(kept);
+  map_in_force_ = true;
+  material_ = m;
+  install(std::move(loop), next);
+  epoch_ = monotonic_now();
+  time_ = 0;
+}
+
+scenario::Resolved Workbench::resolve_scenario(const std::filesystem::path& file) {
+  try {
+    return scenario::resolve(scenario::load_scenario(file));
+  } catch (const scenario::ScenarioError&) {
+    throw;
+  } catch (const std::exception& e) {
+    // Name the scenario (an organ that does not load names only the organ file).
+    throw std::runtime_error(file.string() + ": " + e.what());
+  }
+}
+
+void Workbench::open_scenario(const std::filesystem::path& file) {
+  scenario::Resolved r = resolve_scenario(file);
+  try {
+    set_scenario(std::move(r));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(file.string() + ": " + e.what());
+  }
+}
+
+// Undo of a uniform edit: the scenario's tissue map, vertex by vertex.
+void Workbench::restore_tissue_map() {
+  if (!scenario_ || map_in_force_ || !scenario_->materials) return;
+  const deform::MaterialMap& map = *scenario_->materials;
+  deform::MaterialArrays arrays = deform::MaterialArrays::uniform(map.tissue_of.size(), map.tissues.at(0));
+  for (Index i = 0; i < map.tissue_of.size(); ++i)
+    arrays.set(i, map.scale.empty() ? map.tissues[map.tissue_of[i]]
+                                    : deform::scaled(map.tissues[map.tissue_of[i]], map.scale[i]));
+  MaterialSettings m = material_;
+  m.law = MaterialLaw::Hertz;
+  m.tissue = scenario_->scenario.tissues[scenario_->base];
+  m.tip_radius = scenario_->scenario.probe.tip_radius;
+  m.mass = tissue::kDefaultVertexMass;
+  if (loop_) last_ticket_ = loop_->set_materials(std::move(arrays));  // throws before anything changed
+  material_ = m;
+  map_in_force_ = true;
 }
 
 // Edits of the running loop: validated first (strong guarantee), then sent
@@ -142,6 +244,7 @@ void Workbench::set_material(const MaterialSettings& m) {
   material_ = m;
   for (Probe& p : probes_)
     if (p.host_fed && p.depth > max_depth()) set_depth(p.id, max_depth());
+  if (!(to_material(old) == material)) map_in_force_ = false;  // one material replaces a scenario's map
   if (!loop_) return;
   if (!(to_material(old) == material)) last_ticket_ = loop_->set_material(material);
   if (old.shape != m.shape || old.radius != m.radius) last_ticket_ = loop_->set_shape(check.shape);
@@ -150,6 +253,14 @@ void Workbench::set_material(const MaterialSettings& m) {
 
 deform::MaterialArrays Workbench::materials() const {
   if (!has_organ()) return {};
+  if (tissue_map_in_force() && scenario_->materials) {
+    const deform::MaterialMap& map = *scenario_->materials;
+    deform::MaterialArrays arrays = deform::MaterialArrays::uniform(map.tissue_of.size(), map.tissues.at(0));
+    for (Index i = 0; i < map.tissue_of.size(); ++i)
+      arrays.set(i, map.scale.empty() ? map.tissues[map.tissue_of[i]]
+                                      : deform::scaled(map.tissues[map.tissue_of[i]], map.scale[i]));
+    return arrays;
+  }
   return deform::MaterialArrays::uniform(organ_.mesh->vertex_count(), to_material(material_));
 }
 
@@ -224,7 +335,7 @@ void Workbench::place(int id, const Vec3& anchor, const Vec3& normal, double dep
   p->anchor = anchor;
   p->normal = normal.normalized();
   p->depth = std::clamp(depth, 0.0, max_depth());
-  p->tip = p->anchor - p->depth * p->normal;
+  p->tip = to_world(p->anchor - p->depth * p->normal);
   feed(*p);
 }
 
@@ -232,7 +343,7 @@ void Workbench::set_depth(int id, double depth) {
   Probe* p = probe(id);
   if (!p || !p->host_fed) return;
   p->depth = std::clamp(depth, 0.0, max_depth());
-  p->tip = p->anchor - p->depth * p->normal;
+  p->tip = to_world(p->anchor - p->depth * p->normal);
   feed(*p);
 }
 
@@ -249,7 +360,17 @@ void Workbench::reenable(int id) {
 void Workbench::update() {
   if (!loop_) return;
   const haptics::LoopView v = loop_->view();
-  if (v.tick > 0) time_ = v.time - epoch_;
+  if (v.tick > 0) {
+    time_ = v.time - epoch_;
+    loop_time_ = v.time;
+  }
+  // A breathing organ moves: every placed mouse probe's tip follows it.
+  if (field() && field()->breathing.enabled)
+    for (Probe& p : probes_)
+      if (p.host_fed && p.placed) {
+        p.tip = to_world(p.anchor - p.depth * p.normal);
+        feed(p);
+      }
   for (Probe& p : probes_) {
     if (p.slot >= v.probe_count) continue;
     const haptics::ProbeTickResult& r = v.probes[p.slot];
@@ -292,7 +413,7 @@ void Workbench::reset() {
   for (Probe& p : probes_) {
     if (p.host_fed) {
       p.depth = 0;
-      if (p.placed) p.tip = p.anchor + kLiftClearance * p.normal;
+      if (p.placed) p.tip = to_world(p.anchor + kLiftClearance * p.normal);
       feed(p);
     }
     p.output = {};

@@ -13,12 +13,21 @@
 // to the running loop (applied at a tick boundary, recorded with the
 // session): the dent and the other probes stay where they are. Only a new
 // organ builds a new loop.
+//
+// A scenario (scenario::Resolved) is an organ with its session model: the
+// tissue map and the tissue field (lesions, pulses, breathing, dynamic
+// regions) ride on the loop's model, so the ticks feel them. A breathing
+// organ moves in the world: a mouse probe's anchor is in the organ frame and
+// the tip fed to its device is where that point is at the loop's time.
 
 #include "devices/loader.h"
 #include "haptics/loop.h"
 #include "mesh/organ.h"
+#include "scenario/resolve.h"
+#include "tissue/tissue.h"
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <span>
 #include <memory>
@@ -27,12 +36,24 @@
 
 namespace palpa::app {
 
+/// The force law the material panel sets.
+enum class MaterialLaw : std::uint8_t {
+  Hertz = 0,   ///< a tissue in the units educators use, mapped by tissue::hertz_material
+  Linear = 1,  ///< advanced: the per-vertex local model's own parameters (N/m)
+};
+
 /// What the material panel edits; applied to the whole organ. SI units.
 struct MaterialSettings {
+  MaterialLaw law = MaterialLaw::Hertz;
+  /// Hertz: the tissue (E in Pa, nu, damping ratio, relaxation time s and
+  /// fraction, stiffening 1/m) and the probe's tip radius (m).
+  tissue::Tissue tissue;
+  double tip_radius = tissue::kDefaultTipRadius;  ///< m
+  /// Linear (advanced): the local model kind and its parameters.
   deform::LocalModelKind model = deform::LocalModelKind::Linear;
   double stiffness = 200.0;  ///< N/m
   double damping = 2.0;      ///< N s/m
-  double mass = 1e-3;        ///< kg
+  double mass = 1e-3;        ///< kg (also the Hertz model's vertex mass)
   deform::ShapeKind shape = deform::ShapeKind::Wendland;
   double radius = 0.025;     ///< shape-function support, m
   double friction = 0.2;     ///< K of eq. (4)
@@ -80,15 +101,47 @@ class Workbench {
   Workbench(const Workbench&) = delete;
   Workbench& operator=(const Workbench&) = delete;
 
-  /// Replaces the organ: a new loop on it; probes stay, mouse probes are
-  /// unplaced. Strong guarantee: if building throws, nothing changes.
+  /// Replaces the organ: a new loop on it (any scenario is closed); probes
+  /// stay, mouse probes are unplaced. Strong guarantee: if building throws,
+  /// nothing changes.
   void set_organ(mesh::Organ organ);
   bool has_organ() const { return organ_.mesh != nullptr; }
   const mesh::Organ& organ() const { return organ_; }
 
+  /// Runs a resolved scenario: its organ, a new loop on
+  /// scenario::session_model (the tissue map and the field attached) with
+  /// the scenario's probe shape function and force clamp, the base tissue's
+  /// Hertz material as the initial materials (the model's tissue map
+  /// replaces them). The material settings become the base tissue's
+  /// (tissue, tip radius, shape, force clamp). Probes stay, mouse probes are
+  /// unplaced. Strong guarantee: if building throws, nothing changes.
+  void set_scenario(scenario::Resolved resolved);
+  /// load_scenario + resolve + set_scenario. Throws (nothing changed)
+  /// scenario::ScenarioError, or std::runtime_error whose message starts
+  /// with the file's path, for a file that does not read, validate, resolve
+  /// or run.
+  void open_scenario(const std::filesystem::path& file);
+  /// load_scenario + resolve, with the errors open_scenario throws (a
+  /// window builds its view of the organ between this and set_scenario).
+  static scenario::Resolved resolve_scenario(const std::filesystem::path& file);
+  bool has_scenario() const { return scenario_ != nullptr; }
+  /// The scenario running, or null.
+  const scenario::Resolved* scenario() const { return scenario_.get(); }
+  /// The running model's tissue field (null without a scenario).
+  std::shared_ptr<const tissue::TissueField> field() const;
+  /// True while the scenario's tissue map is in force (false once a
+  /// material edit replaced it with one material for the whole organ).
+  bool tissue_map_in_force() const { return scenario_ && map_in_force_; }
+  /// Undoes a material edit on a scenario: the scenario's tissue map (and
+  /// its base tissue in the settings) again, as a command to the running
+  /// loop. No effect without a scenario or when the map is in force.
+  void restore_tissue_map();
+
   /// New material for every vertex and new force/shape parameters, sent to
-  /// the running loop as edits (probes and dent kept). Strong guarantee:
-  /// a bad value throws std::invalid_argument and changes nothing.
+  /// the running loop as edits (probes and dent kept). With a scenario, a
+  /// new material replaces its tissue map for the whole organ (see
+  /// restore_tissue_map). Strong guarantee: a bad value throws
+  /// std::invalid_argument and changes nothing.
   void set_material(const MaterialSettings& m);
   const MaterialSettings& material() const { return material_; }
   /// The per-vertex materials the running model uses (once settled()).
@@ -148,12 +201,25 @@ class Workbench {
   std::size_t contact_count() const;
   /// s since the organ was set (CLOCK_MONOTONIC of the loop's latest tick).
   double time() const { return time_; }
+  /// The loop's time (s, its clock) at the latest update(): the time of the
+  /// field (breathing, pulses) the ticks use, and the time mouse probes'
+  /// tips were last fed for.
+  double loop_time() const { return loop_time_; }
+  /// Where organ point `x` (organ frame, m) is in the world at the loop's
+  /// time loop_time() (breathing; x itself without it).
+  Vec3 to_world(const Vec3& x) const;
 
  private:
-  haptics::LoopConfig loop_config() const;
+  haptics::LoopConfig loop_config(const MaterialSettings& m) const;
+  haptics::LoopConfig loop_config() const { return loop_config(material_); }
   std::unique_ptr<haptics::HapticLoop> build_loop(const mesh::Organ& organ, const deform::MaterialArrays& materials,
                                                   const haptics::LoopConfig& config,
-                                                  const std::vector<Probe>& probes) const;
+                                                  const std::vector<Probe>& probes,
+                                                  std::shared_ptr<const haptics::SessionModel> model = nullptr) const;
+  // Probes for a new organ: every mouse probe unplaced.
+  std::vector<Probe> unplaced_probes() const;
+  // The tip a mouse probe's device is fed, world frame at the loop's time.
+  Vec3 fed_tip(const Probe& p) const;
   // Stops the current loop and starts `next` (may be null) with `probes`.
   void install(std::unique_ptr<haptics::HapticLoop> next, std::vector<Probe>& probes);
   void feed(const Probe& p) const;
@@ -163,6 +229,8 @@ class Workbench {
 
   devices::PluginLoader loader_;
   mesh::Organ organ_;
+  std::unique_ptr<const scenario::Resolved> scenario_;  // null: a bare organ
+  bool map_in_force_ = false;                          // the scenario's tissue map, not a uniform edit
   MaterialSettings material_;
   std::vector<Probe> probes_;
   std::vector<std::shared_ptr<devices::Device>> retired_;  // removed, maybe still read by the loop
@@ -172,6 +240,7 @@ class Workbench {
   int next_id_ = 1;
   double epoch_ = 0;  // s, CLOCK_MONOTONIC when the organ was set
   double time_ = 0;
+  double loop_time_ = 0;  // s, the loop clock's time of the latest tick read
 };
 
 /// The core's material from the panel's settings.

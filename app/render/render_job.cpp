@@ -6,6 +6,8 @@
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
 #include "haptics/session.h"
+#include "scenario/resolve.h"
+#include "render/lesion_view.h"
 #include "render/probe_view.h"
 #include "render/scene.h"
 
@@ -87,6 +89,9 @@ std::string render_usage(const std::string& program) {
          "  --gl auto|osmesa|egl   OpenGL backend (default auto: EGL on a GPU, else OSMesa)\n"
          "  --path partial|vtk|cpu stream upload path (default partial)\n"
          "  --settle SECONDS       simulated time before the picture, 0.001 .. 60 (default 1)\n"
+         "  --scenario FILE        a scenario: its organ, tissues, lesions, pulse and breathing\n"
+         "  --reveal               also draw the scenario's hidden and after-exam lesions and the force\n"
+         "                         arrows (debriefing; without it a scenario's picture shows no force)\n"
          "  --stiffness N_PER_M    vertex stiffness, 0.001 .. 1e+06 (default 200)\n"
          "  --damping NS_PER_M     vertex damping, 1e-06 .. 10000 (default 2)\n"
          "  --mass KG              vertex mass, 1e-09 .. 10 (default 0.001)\n"
@@ -111,6 +116,10 @@ RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* h
       if (help) *help = true;
     } else if (a == "--mesh") {
       o.mesh = value();
+    } else if (a == "--scenario") {
+      o.scenario = value();
+    } else if (a == "--reveal") {
+      o.reveal = true;
     } else if (a == "--unit") {
       const std::string& v = value();
       try {
@@ -208,8 +217,13 @@ RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* h
 RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   RenderJobResult result;
 
-  // The organ.
-  Organ organ = o.mesh.empty() ? load_default_organ() : load_organ(o.mesh, o.unit);
+  // The organ (a scenario's, with its tissues and field).
+  std::optional<scenario::Resolved> scen;
+  if (!o.scenario.empty()) {
+    scen = scenario::resolve(scenario::load_scenario(o.scenario));
+    log << "scenario " << o.scenario.string() << ": " << scen->scenario.title << "\n";
+  }
+  Organ organ = scen ? scen->organ : o.mesh.empty() ? load_default_organ() : load_organ(o.mesh, o.unit);
   const auto& mesh = *organ.mesh;
   {
     std::ostringstream s;
@@ -228,7 +242,10 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   config.deform_rate_hz = 1.0 / o.dt;  // a deformation step every tick
   config.force = o.force;
   config.shape = o.shape;
-  const auto model = haptics::SessionModel::make(organ.mesh, {}, config);
+  if (scen) config.shape = scen->scenario.probe.shape;
+  const auto model = scen ? scenario::session_model(*scen, config) : haptics::SessionModel::make(organ.mesh, {}, config);
+  const tissue::TissueField* field = model->field.get();
+  const deform::Material material = scen ? scen->tissues[scen->base] : o.material;
   const collision::VertexTree& tree = *model->tree;
   std::vector<ProbeSpec> specs = o.probes;
   if (specs.empty()) {
@@ -256,15 +273,18 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
     setups[k].name = "probe " + std::to_string(k + 1);
     setups[k].spec.position_dof = 3;
   }
-  haptics::Session session(model, deform::MaterialArrays::uniform(mesh.vertex_count(), o.material), setups);
+  haptics::Session session(model, deform::MaterialArrays::uniform(mesh.vertex_count(), material), setups);
   std::vector<haptics::ProbeTickInput> inputs(specs.size());
   std::vector<haptics::ProbeTickResult> outputs(specs.size());
   const long steps = std::max(1L, std::lround(o.settle_time / o.dt));
   for (long s = 0; s < steps; ++s) {
+    const double t = static_cast<double>(s) * o.dt;
     for (std::size_t k = 0; k < specs.size(); ++k) {
       PalpaDeviceSample& smp = inputs[k].sample;
       smp.orientation[0] = 1;
-      for (int a = 0; a < 3; ++a) smp.position[a] = tips[k][a];
+      // With breathing the tip rides on the organ (the press is relative to it).
+      const Vec3 tip = field ? field->to_world(tips[k], t) : tips[k];
+      for (int a = 0; a < 3; ++a) smp.position[a] = tip[a];
       smp.status = PALPA_STATUS_VALID;
       smp.sequence = static_cast<std::uint64_t>(s) + 1;
       smp.time = static_cast<double>(s) * o.dt;
@@ -280,13 +300,35 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   log << "rendering with " << gl_backend_name(result.backend) << " (" << result.gl_renderer << ")\n";
   SurfaceView view(organ.mesh, o.path);
   view.sync(surface);
+  const double t_end = static_cast<double>(steps - 1) * o.dt;
+  const Eigen::Matrix4d organ_to_world = field ? field->organ_to_world(t_end) : Eigen::Matrix4d::Identity();
+  view.set_transform(organ_to_world);
   scene.add(view.actor());
+  // Shown lesions (and after-exam ones when revealed); hidden ones never.
+  std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views;
+  if (scen) {
+    for (const auto& l : scen->lesions) {
+      const bool draw = l.visibility == tissue::Visibility::Shown ||
+                        (o.reveal && l.visibility == tissue::Visibility::AfterExam) || (o.reveal && l.visibility == tissue::Visibility::Hidden);
+      if (!draw) continue;
+      auto lv = std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes);
+      lv->set_transform(organ_to_world);
+      lv->add_to(scene.renderer());
+      lesion_views.push_back(std::move(lv));
+    }
+    result.lesions_drawn = lesion_views.size();
+  }
+  // A scenario's picture shows no force arrow (its length would give hidden
+  // lesions away: the trainee finds them by feel) unless revealed.
+  const bool hide_force = scen && !o.reveal;
   std::vector<std::unique_ptr<ProbeView>> probe_views;
   const double size = (organ.facts.bbox_max - organ.facts.bbox_min).norm();
   for (std::size_t k = 0; k < specs.size(); ++k) {
     auto pv = std::make_unique<ProbeView>(0.008 * size, 0.15 * size);
     pv->set_force_scale(0.25 * size / std::max(o.force.max_force, 1e-9));
-    pv->set_state(tips[k], axes[k], haptics::to_vec(outputs[k].force_world), outputs[k].in_contact != 0, k == 0);
+    const Vec3 tip = field ? field->to_world(tips[k], t_end) : tips[k];
+    const Vec3 arrow = hide_force ? Vec3::Zero() : haptics::to_vec(outputs[k].force_world);
+    pv->set_state(tip, axes[k], arrow, outputs[k].in_contact != 0, k == 0);
     pv->add_to(scene.renderer());
     probe_views.push_back(std::move(pv));
   }

@@ -28,6 +28,13 @@ struct ProbeSpec {
 
 struct RenderJobOptions {
   std::filesystem::path mesh;            ///< empty: the bundled default organ
+  /// A scenario (docs/SCENARIO.md): its organ, tissues, lesions, pulse and
+  /// breathing replace mesh, unit, material and shape. Hidden lesions are
+  /// never drawn; shown ones are, and every lesion with `reveal`. A
+  /// scenario's picture has no force arrows unless revealed (their length
+  /// would give hidden lesions away).
+  std::filesystem::path scenario;
+  bool reveal = false;
   mesh::MeshUnit unit = mesh::MeshUnit::Auto;
   std::vector<ProbeSpec> probes;         ///< empty: one probe 6 mm into the organ's highest point
   std::filesystem::path output = "palpa-render.png";
@@ -56,6 +63,7 @@ struct RenderJobResult {
   };
   std::vector<Probe> probes;
   double max_displacement = 0;           ///< m
+  std::size_t lesions_drawn = 0;
   double render_ms = 0;                  ///< the final frame, ms
 };
 

@@ -196,7 +196,79 @@ class ViscoelasticModel final : public LocalModel {
   }
 };
 
+// ---------------------------------------------------------------------------
+// Hertz: s(h) = sign(h) S(|h|), S(d) = c ((d + d0)^1.5 - d0^1.5)(1 + alpha d).
+
+// dS/dd at d >= 0, N/m (> 0).
+double hertz_slope(const Material& m, double d) {
+  const double d0 = kHertzSoftening;
+  const double r = std::sqrt(d + d0);
+  const double base = (d + d0) * r - d0 * std::sqrt(d0);
+  return m.hertz * (1.5 * r * (1.0 + m.alpha * d) + base * m.alpha);
+}
+
+class HertzModel final : public LocalModel {
+ public:
+  LocalModelKind kind() const override { return LocalModelKind::Hertz; }
+
+  void step(const Material& m, VertexState& s, double f, double dt) const override {
+    if (!(dt > 0)) return;
+    // Backward Euler as for Exponential, with the Maxwell arm's force taken
+    // at the relaxed q of the step's start (lagging one step; the arm itself
+    // relaxes implicitly): G(h1) = c h1 + dt^2 (1 + g) s(h1) - R = 0,
+    // c = m + b dt, R = c h0 + m dt v0 + dt^2 (f + g s(q0)). G is odd,
+    // increasing and convex on h1 >= 0: Newton from an upper bound converges
+    // monotonically.
+    const double g = m.relaxation;
+    const double c = m.mass + m.damping * dt;
+    const double dt2 = dt * dt;
+    const double arm = g > 0 ? g * hertz_spring(m, s.q) : 0.0;
+    const double r = c * s.h + m.mass * dt * s.v + dt2 * (f + arm);
+    const double sign = r < 0 ? -1.0 : 1.0;
+    const double ra = std::abs(r);
+    const double w = dt2 * (1.0 + g);
+    // Upper bounds: S(h) >= S'(0) h (convex), and S(h) >= c((h+d0)^1.5 - d0^1.5).
+    const double d0 = kHertzSoftening;
+    const double lin = ra / (c + w * hertz_slope(m, 0.0));
+    const double y = ra / (w * m.hertz) + d0 * std::sqrt(d0);
+    const double pw = std::cbrt(y * y) - d0;
+    double h = std::max(0.0, std::min(lin, pw));
+    for (int it = 0; it < kNewtonIterations; ++it) {
+      const double gv = c * h + w * hertz_spring(m, h) - ra;
+      const double gp = c + w * hertz_slope(m, h);
+      const double dh = gv / gp;
+      h = std::max(h - dh, 0.0);
+      if (!(std::abs(dh) > 1e-14 * h)) break;
+    }
+    const double h1 = sign * h;
+    s.v = (h1 - s.h) / dt;
+    s.h = h1;
+    if (g > 0) {
+      const double beta = dt / m.tau;
+      s.q = (s.q + beta * h1) / (1.0 + beta);
+    } else {
+      s.q = 0.0;
+    }
+  }
+
+  double equilibrium_force(const Material& m, double h) const override { return hertz_spring(m, h); }
+  double restoring_force(const Material& m, double h, double v, double q) const override {
+    const double g = m.relaxation;
+    return -(1.0 + g) * hertz_spring(m, h) + (g > 0 ? g * hertz_spring(m, q) : 0.0) - m.damping * v;
+  }
+
+ private:
+  static constexpr int kNewtonIterations = 40;
+};
+
 }  // namespace
+
+double hertz_spring(const Material& m, double h) {
+  const double d = std::abs(h);
+  const double d0 = kHertzSoftening;
+  const double mag = m.hertz * ((d + d0) * std::sqrt(d + d0) - d0 * std::sqrt(d0)) * (1.0 + m.alpha * d);
+  return h < 0 ? -mag : mag;
+}
 
 double exponential_spring(const Material& m, double h) {
   // k h for alpha = 0; otherwise k expm1(alpha |h|) / alpha, linear past the cap.
@@ -214,6 +286,7 @@ namespace {
 constinit const LinearModel linear;
 constinit const ExponentialModel exponential;
 constinit const ViscoelasticModel viscoelastic;
+constinit const HertzModel hertz_model;
 }  // namespace
 
 const LocalModel& local_model(LocalModelKind kind) {
@@ -222,6 +295,8 @@ const LocalModel& local_model(LocalModelKind kind) {
       return exponential;
     case LocalModelKind::Viscoelastic:
       return viscoelastic;
+    case LocalModelKind::Hertz:
+      return hertz_model;
     case LocalModelKind::Linear:
       break;
   }

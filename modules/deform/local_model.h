@@ -67,6 +67,10 @@ struct LinearStep {
 /// there (C1, still convex), so forces stay finite for any finite h.
 double exponential_spring(const Material& m, double h);
 
+/// Spring force s(h) of the Hertz model, N (same sign as h):
+/// sign(h) hertz ((|h| + d0)^1.5 - d0^1.5)(1 + alpha |h|), d0 = kHertzSoftening.
+double hertz_spring(const Material& m, double h);
+
 /// alpha |h| beyond which the Exponential spring continues linearly.
 inline constexpr double kExponentialCap = 40.0;
 

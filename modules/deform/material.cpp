@@ -21,10 +21,12 @@ namespace {
 
 // True when validate_material would accept m (cheap: no message is built).
 bool usable(const Material& m) {
-  return static_cast<unsigned>(m.model) <= static_cast<unsigned>(LocalModelKind::Viscoelastic) &&
+  return static_cast<unsigned>(m.model) <= static_cast<unsigned>(LocalModelKind::Hertz) &&
          m.mass > 0 && std::isfinite(m.mass) && m.damping >= 0 && std::isfinite(m.damping) &&
          m.stiffness > 0 && std::isfinite(m.stiffness) && m.alpha >= 0 && std::isfinite(m.alpha) &&
-         m.k2 >= 0 && std::isfinite(m.k2) && m.tau > 0 && std::isfinite(m.tau);
+         m.k2 >= 0 && std::isfinite(m.k2) && m.tau > 0 && std::isfinite(m.tau) && m.hertz >= 0 &&
+         std::isfinite(m.hertz) && (m.model != LocalModelKind::Hertz || m.hertz > 0) && m.relaxation >= 0 &&
+         std::isfinite(m.relaxation);
 }
 
 }  // namespace
@@ -32,7 +34,7 @@ bool usable(const Material& m) {
 void validate_material(const Material& m, const std::string& what) {
   // The model must be one of the enumerated kinds.
   const auto kind = static_cast<unsigned>(m.model);
-  if (kind > static_cast<unsigned>(LocalModelKind::Viscoelastic)) {
+  if (kind > static_cast<unsigned>(LocalModelKind::Hertz)) {
     throw std::invalid_argument(what + ": unknown local model " + std::to_string(kind));
   }
   // Every parameter finite, with the sign each model needs.
@@ -44,6 +46,23 @@ void validate_material(const Material& m, const std::string& what) {
   if (!(m.alpha >= 0) || !std::isfinite(m.alpha)) fail(what, "alpha", "non-negative and finite", m.alpha, "1/m");
   if (!(m.k2 >= 0) || !std::isfinite(m.k2)) fail(what, "k2", "non-negative and finite", m.k2, "N/m");
   if (!(m.tau > 0) || !std::isfinite(m.tau)) fail(what, "tau", "positive and finite", m.tau, "s");
+  if (m.model == LocalModelKind::Hertz) {
+    if (!(m.hertz > 0) || !std::isfinite(m.hertz))
+      fail(what, "hertz", "positive and finite", m.hertz, "N/m^1.5");
+  } else if (!(m.hertz >= 0) || !std::isfinite(m.hertz)) {
+    fail(what, "hertz", "non-negative and finite", m.hertz, "N/m^1.5");
+  }
+  if (!(m.relaxation >= 0) || !std::isfinite(m.relaxation))
+    fail(what, "relaxation", "non-negative and finite", m.relaxation, "(fraction)");
+}
+
+Material scaled(const Material& m, double scale) {
+  Material out = m;
+  out.stiffness *= scale;
+  out.k2 *= scale;
+  out.hertz *= scale;
+  out.damping *= std::sqrt(scale);
+  return out;
 }
 
 MaterialArrays MaterialArrays::uniform(std::size_t n, const Material& m) {
@@ -55,11 +74,13 @@ MaterialArrays MaterialArrays::uniform(std::size_t n, const Material& m) {
   a.alpha.assign(n, m.alpha);
   a.k2.assign(n, m.k2);
   a.tau.assign(n, m.tau);
+  a.hertz.assign(n, m.hertz);
+  a.relaxation.assign(n, m.relaxation);
   return a;
 }
 
 Material MaterialArrays::at(Index i) const {
-  return Material{model[i], mass[i], damping[i], stiffness[i], alpha[i], k2[i], tau[i]};
+  return Material{model[i], mass[i], damping[i], stiffness[i], alpha[i], k2[i], tau[i], hertz[i], relaxation[i]};
 }
 
 void MaterialArrays::set(Index i, const Material& m) {
@@ -70,6 +91,8 @@ void MaterialArrays::set(Index i, const Material& m) {
   alpha[i] = m.alpha;
   k2[i] = m.k2;
   tau[i] = m.tau;
+  hertz[i] = m.hertz;
+  relaxation[i] = m.relaxation;
 }
 
 void MaterialArrays::validate(std::size_t expected_size) const {
@@ -87,6 +110,8 @@ void MaterialArrays::validate(std::size_t expected_size) const {
   check_size("alpha", alpha.size());
   check_size("k2", k2.size());
   check_size("tau", tau.size());
+  check_size("hertz", hertz.size());
+  check_size("relaxation", relaxation.size());
   // Every vertex's parameters must be usable.
   for (std::size_t i = 0; i < expected_size; ++i) {
     const Material m = at(static_cast<Index>(i));

@@ -170,7 +170,8 @@ DeformableSurface::MaterialKey DeformableSurface::key_of(const Material& m) {
   return {static_cast<std::uint64_t>(m.model), std::bit_cast<std::uint64_t>(m.mass),
           std::bit_cast<std::uint64_t>(m.damping), std::bit_cast<std::uint64_t>(m.stiffness),
           std::bit_cast<std::uint64_t>(m.alpha), std::bit_cast<std::uint64_t>(m.k2),
-          std::bit_cast<std::uint64_t>(m.tau)};
+          std::bit_cast<std::uint64_t>(m.tau), std::bit_cast<std::uint64_t>(m.hertz),
+          std::bit_cast<std::uint64_t>(m.relaxation)};
 }
 
 Index DeformableSurface::intern_material(const Material& m) {
@@ -222,21 +223,84 @@ void DeformableSurface::compact_integrators() {
 
 MaterialArrays DeformableSurface::materials() const {
   MaterialArrays out = MaterialArrays::uniform(integrator_of_.size(), Material{});
-  for (std::size_t i = 0; i < integrator_of_.size(); ++i)
-    out.set(static_cast<Index>(i), integrators_[integrator_of_[i]].material);
+  for (std::size_t i = 0; i < integrator_of_.size(); ++i) out.set(static_cast<Index>(i), vertex_material(static_cast<Index>(i)));
   return out;
 }
 
-bool DeformableSurface::uniform() const { return integrators_.size() == 1; }
+bool DeformableSurface::uniform() const {
+  if (integrators_.size() != 1) return false;
+  for (float v : scale_)
+    if (v != scale_.front()) return false;
+  return true;
+}
 
 double DeformableSurface::max_stiffness() const {
   double k = 0;
   for (const Integrator& g : integrators_) {
     double kg = g.material.stiffness;
     if (g.material.model == LocalModelKind::Viscoelastic) kg += g.material.k2;
+    if (g.material.model == LocalModelKind::Hertz) kg *= 1.0 + g.material.relaxation;
     k = std::max(k, kg);
   }
-  return k;
+  double smax = 1.0;
+  if (!scale_.empty()) smax = *std::max_element(scale_.begin(), scale_.end());
+  return k * smax;
+}
+
+void DeformableSurface::set_tissue_map(std::vector<Material> tissues, std::span<const std::uint16_t> tissue_of,
+                                       std::span<const float> scale) {
+  const std::size_t n = mesh_->vertex_count();
+  if (tissues.empty()) throw std::invalid_argument("set_tissue_map: no tissues");
+  for (std::size_t t = 0; t < tissues.size(); ++t) validate_material(tissues[t], "tissue " + std::to_string(t));
+  if (tissue_of.size() != n)
+    throw std::invalid_argument("set_tissue_map: " + std::to_string(tissue_of.size()) + " tissue indices for " +
+                                std::to_string(n) + " vertices");
+  if (!scale.empty() && scale.size() != n)
+    throw std::invalid_argument("set_tissue_map: " + std::to_string(scale.size()) + " scales for " +
+                                std::to_string(n) + " vertices");
+  // Check everything before changing anything.
+  std::uint16_t top = 0;
+  for (std::uint16_t t : tissue_of) top = std::max(top, t);
+  if (top >= tissues.size()) {
+    const auto at = std::find(tissue_of.begin(), tissue_of.end(), top) - tissue_of.begin();
+    throw std::invalid_argument("set_tissue_map: tissue of vertex " + std::to_string(at) + " is " +
+                                std::to_string(top) + ", but there are " + std::to_string(tissues.size()) +
+                                " tissues");
+  }
+  for (std::size_t i = 0; i < scale.size(); ++i) {
+    if (!(scale[i] > 0) || !std::isfinite(scale[i])) {
+      std::ostringstream msg;
+      msg << "set_tissue_map: scale of vertex " << i << " must be positive and finite, got " << scale[i];
+      throw std::invalid_argument(msg.str());
+    }
+  }
+  integrators_.clear();
+  integrator_lookup_.clear();
+  for (const Material& m : tissues) {
+    Integrator g;
+    g.material = m;
+    if (coefficients_dt_ > 0) g.linear = LinearStep::make(m, coefficients_dt_);
+    integrator_lookup_.try_emplace(key_of(m), static_cast<Index>(integrators_.size()));
+    integrators_.push_back(g);
+  }
+  integrator_of_.assign(tissue_of.begin(), tissue_of.end());
+  bool ones = true;
+  for (float v : scale) ones = ones && v == 1.0f;
+  if (ones) scale_.clear(); else scale_.assign(scale.begin(), scale.end());
+}
+
+void DeformableSurface::set_drives(std::vector<Index> vertices, std::vector<std::array<float, 4>> weights) {
+  if (vertices.size() != weights.size())
+    throw std::invalid_argument("set_drives: " + std::to_string(vertices.size()) + " vertices but " +
+                                std::to_string(weights.size()) + " weights");
+  for (std::size_t j = 0; j < vertices.size(); ++j) {
+    if (vertices[j] >= mesh_->vertex_count())
+      throw std::invalid_argument("set_drives: vertex " + std::to_string(vertices[j]) + " is out of range");
+    for (float w : weights[j])
+      if (!std::isfinite(w)) throw std::invalid_argument("set_drives: a weight is not finite");
+  }
+  drive_vertices_ = std::move(vertices);
+  drive_weights_ = std::move(weights);
 }
 
 void DeformableSurface::set_material(Index i, const Material& m) {
@@ -246,6 +310,7 @@ void DeformableSurface::set_material(Index i, const Material& m) {
   }
   validate_material(m, "material of vertex " + std::to_string(i));
   integrator_of_[i] = intern_material(m);
+  if (!scale_.empty()) scale_[i] = 1.0f;
   // Painting many distinct values leaves unused integrators behind: compact now and then.
   if (integrators_.size() > 2 * integrator_of_.size() + 64) compact_integrators();
 }
@@ -253,6 +318,7 @@ void DeformableSurface::set_material(Index i, const Material& m) {
 void DeformableSurface::set_materials(const MaterialArrays& materials) {
   materials.validate(mesh_->vertex_count());
   build_integrators(materials);
+  scale_.clear();
 }
 
 void DeformableSurface::set_uniform_material(const Material& m) {
@@ -269,6 +335,7 @@ void DeformableSurface::set_uniform_material(const Material& m) {
   }
   integrator_lookup_.clear();
   integrator_lookup_.emplace(key_of(m), Index{0});
+  scale_.clear();
 }
 
 void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
@@ -285,7 +352,10 @@ void DeformableSurface::add_field(Index i, const Contact& c, double depth, const
   c.shape.evaluate(r, shape, slope);
   const Material& m = integrators_[integrator_of_[i]].material;
   const double h = -depth * shape;
-  force_[i] += m.model == LocalModelKind::Linear ? m.stiffness * h : local_model(m.model).equilibrium_force(m, h);
+  // Every model's equilibrium force is linear in its moduli, so a vertex's
+  // modulus scale multiplies it.
+  const double f = m.model == LocalModelKind::Linear ? m.stiffness * h : local_model(m.model).equilibrium_force(m, h);
+  force_[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
 
   // eq. (3): depth S'(r) along the tangential direction away from the contact.
   const Vec3& n0 = mesh_->normals[i];
@@ -371,6 +441,21 @@ void DeformableSurface::apply_fields() {
     field_by_scan(c, depth, n);
   }
 
+  // Drives (pulsing vessels): the force that holds a free vertex at its lift.
+  for (std::size_t j = 0; j < drive_vertices_.size(); ++j) {
+    const Index i = drive_vertices_[j];
+    const auto& w = drive_weights_[j];
+    const double lift = w[0] * drive_values_[0] + w[1] * drive_values_[1] + w[2] * drive_values_[2] +
+                        w[3] * drive_values_[3];
+    const Material& m = integrators_[integrator_of_[i]].material;
+    const double f = local_model(m.model).equilibrium_force(m, lift);
+    force_[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
+    if (!(flags_[i] & kForced)) {
+      flags_[i] |= kForced;
+      forced_.push_back(i);
+    }
+  }
+
   // Vertices that left every field: their stream correction is now zero.
   for (Index i : prev_forced_) {
     if (!(flags_[i] & kForced)) write_stream(i);
@@ -405,6 +490,7 @@ struct DeformableSurface::Sweep {
   const Vec3* correction;
   const Index* integrator_of;
   const Integrator* integrators;
+  const float* scale;  // null: all 1
   std::uint8_t* flags;
   float* stream;
   const double* limit;
@@ -420,6 +506,7 @@ struct DeformableSurface::Sweep {
         correction(s.correction_.data()),
         integrator_of(s.integrator_of_.data()),
         integrators(s.integrators_.data()),
+        scale(s.scale_.empty() ? nullptr : s.scale_.data()),
         flags(s.flags_.data()),
         stream(s.stream_.data()),
         limit(s.drawn_limit_),
@@ -445,7 +532,14 @@ struct DeformableSurface::Sweep {
     const bool forced = (f & kForced) != 0;
     const double fi = forced ? force[i] : 0.0;
     const Integrator& g = integrators[integrator_of[i]];
-    if (g.material.model == LocalModelKind::Linear) {
+    const float si = scale ? scale[i] : 1.0f;
+    if (si != 1.0f) {
+      // A scaled vertex (tissue maps: Hertz, integrated without a cache; a
+      // scaled Linear vertex makes its coefficients here, slowly).
+      const Material m = scaled(g.material, static_cast<double>(si));
+      if (m.model == LocalModelKind::Linear) LinearStep::make(m, dt).apply(s, fi);
+      else local_model(m.model).step(m, s, fi, dt);
+    } else if (g.material.model == LocalModelKind::Linear) {
       g.linear.apply(s, fi);
     } else {
       local_model(g.material.model).step(g.material, s, fi, dt);

@@ -77,6 +77,14 @@ struct SurfaceOptions {
 std::vector<double> drawn_displacement_limits(const mesh::SurfaceMesh& mesh, double thickness_fraction = 0.4,
                                               double curvature_fraction = 0.3);
 
+/// A tissue map as plain data: vertex i has scaled(tissues[tissue_of[i]], scale[i])
+/// (scale empty: all 1). What DeformableSurface::set_tissue_map takes.
+struct MaterialMap {
+  std::vector<Material> tissues;
+  std::vector<std::uint16_t> tissue_of;  ///< per vertex, index into tissues
+  std::vector<float> scale;              ///< per vertex modulus multiplier (> 0), or empty
+};
+
 /// Per-tick state of the whole surface: plain data the recorder can snapshot.
 struct SurfaceState {
   std::vector<VertexState> vertices;
@@ -107,6 +115,13 @@ class DeformableSurface {
   /// from one small table of distinct materials (one index per vertex), so
   /// the haptic tick touches one array instead of seven. i < vertex count.
   const Material& material(Index i) const { return integrators_[integrator_of_[i]].material; }
+  /// Modulus multiplier of vertex i (1 unless a tissue map set one), dimensionless.
+  double modulus_scale(Index i) const { return scale_.empty() ? 1.0 : static_cast<double>(scale_[i]); }
+  /// The material vertex i actually has: material(i) scaled by modulus_scale(i)
+  /// (deform::scaled). i < vertex count.
+  Material vertex_material(Index i) const {
+    return scale_.empty() ? material(i) : scaled(material(i), static_cast<double>(scale_[i]));
+  }
   /// Hints the processor to fetch what deformed_normal(i), material(i) and
   /// state() read for vertex i into cache (no effect on results; lets the
   /// haptic tick overlap the memory latency of several probes). i < vertex count.
@@ -115,6 +130,7 @@ class DeformableSurface {
     __builtin_prefetch(correction_.data() + i);
     __builtin_prefetch(mesh_->normals.data() + i);
     __builtin_prefetch(integrator_of_.data() + i);
+    if (!scale_.empty()) __builtin_prefetch(scale_.data() + i);
   }
   /// Replace the material of vertex i (takes effect at the next step).
   /// Throws std::invalid_argument for an out-of-range vertex or a bad material.
@@ -125,6 +141,28 @@ class DeformableSurface {
   /// the surface is already uniform (one table entry is replaced), one pass
   /// over the vertices otherwise. Throws std::invalid_argument for a bad material.
   void set_uniform_material(const Material& m);
+  /// A tissue map in one pass, without looking materials up one by one
+  /// (what a 1M-vertex heterogeneous map needs): vertex i gets
+  /// scaled(tissues[tissue_of[i]], scale[i]). `scale` may be empty (all 1).
+  /// Throws std::invalid_argument for a bad tissue material, a tissue index
+  /// out of range, a scale that is not positive and finite, or sizes that do
+  /// not match the mesh ("set_tissue_map: scale of vertex 7 must be positive
+  /// and finite, got 0").
+  void set_tissue_map(std::vector<Material> tissues, std::span<const std::uint16_t> tissue_of,
+                      std::span<const float> scale);
+  void set_tissue_map(const MaterialMap& map) { set_tissue_map(map.tissues, map.tissue_of, map.scale); }
+
+  /// Drives that move the surface's rest shape with time (pulsing vessels):
+  /// drive p lifts vertex vertices[j] by weights[j][p] * value_p (m), value_p
+  /// set per step with set_drive_values. The lift is an outward force that
+  /// holds a free vertex at that height (equilibrium_force); under a contact
+  /// it adds to the contact's field. Drive vertices stay in the active set.
+  /// Throws std::invalid_argument for an index out of range or a weight
+  /// that is not finite; sizes must match.
+  void set_drives(std::vector<Index> vertices, std::vector<std::array<float, 4>> weights);
+  /// The drives' values for the following steps, m (no allocation).
+  void set_drive_values(const std::array<double, 4>& values) { drive_values_ = values; }
+
   const SurfaceOptions& options() const { return options_; }
 
   /// The contacts whose force fields act during the following steps
@@ -197,7 +235,7 @@ class DeformableSurface {
   };
 
   // Bit pattern of a Material's fields: the key that finds its Integrator.
-  using MaterialKey = std::array<std::uint64_t, 7>;
+  using MaterialKey = std::array<std::uint64_t, 9>;
   struct MaterialKeyHash {
     std::size_t operator()(const MaterialKey& k) const;
   };
@@ -226,6 +264,10 @@ class DeformableSurface {
   std::vector<Index> integrator_of_;     // per vertex: index into integrators_
   std::unordered_map<MaterialKey, Index, MaterialKeyHash> integrator_lookup_;
   double coefficients_dt_ = 0;           // s; dt the Linear coefficients were made for (0: none)
+  std::vector<float> scale_;             // per vertex modulus multiplier (empty: all 1)
+  std::vector<Index> drive_vertices_;    // set_drives
+  std::vector<std::array<float, 4>> drive_weights_;
+  std::array<double, 4> drive_values_{};  // m
 
   std::vector<double> force_;         // N, per vertex
   std::vector<Vec3> correction_;      // eq. (3) sum, per vertex

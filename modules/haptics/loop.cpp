@@ -148,6 +148,7 @@ HapticLoop::HapticLoop(std::shared_ptr<const SessionModel> model, deform::Materi
   mesh_ = model->mesh;
   tree_ = model->tree;
   options_ = model->options;
+  model_ = model;
   init(std::move(materials), std::move(probes));
 }
 
@@ -174,15 +175,25 @@ void HapticLoop::init(deform::MaterialArrays materials, std::vector<ProbeBinding
   material_source_ = material_source_of(materials);
   replicas_[0] = std::make_unique<deform::DeformableSurface>(mesh_, materials, options_);
   replicas_[1] = std::make_unique<deform::DeformableSurface>(mesh_, std::move(materials), options_);
+  const tissue::TissueField* field = nullptr;
+  if (model_) {
+    for (auto& r : replicas_) model_->prepare_surface(*r);
+    field = model_->field.get();
+    if (model_->tissue_map) {
+      material_source_ = MaterialSource{};
+      material_source_.uniform = false;
+      material_source_.tissue_map = model_->tissue_map;
+    }
+  }
   if (setups.empty()) {
     // A loop may start with no probe: the core needs one setup to build;
     // free its slot again at once.
     ProbeSetup placeholder;
     placeholder.name = "none";
-    core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::vector<ProbeSetup>{placeholder});
+    core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::vector<ProbeSetup>{placeholder}, field);
     core_->apply(LoopCommand::of(LoopCommandKind::RemoveProbe, 0), 0);
   } else {
-    core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::move(setups));
+    core_ = std::make_unique<LoopCore>(*tree_, *mesh_, config_.core, std::move(setups), field);
   }
   for (std::size_t i = 0; i < probes.size(); ++i) {
     bindings_[i] = probes[i];
@@ -515,7 +526,7 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   const std::int64_t t0 = clock_->now_ns();
   const int cur = current_.load(std::memory_order_seq_cst);
   const int other = 1 - cur;
-  apply_deform_request(*replicas_[other], r, contact_scratch_);
+  apply_deform_request(*replicas_[other], r, contact_scratch_, field_of());
   mailbox_->publish(replicas_[other]->stream(), replicas_[other]->take_dirty_ranges());
   meta_[other] = {r.generation, r.time};
   current_.store(other, std::memory_order_seq_cst);
@@ -532,7 +543,7 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   // Wait until the haptic thread has left the old replica, then bring it level.
   if (!stopping)
     while (in_use_.load(std::memory_order_seq_cst) == cur) nap_us(20);
-  apply_deform_request(*replicas_[cur], r, contact_scratch_);
+  apply_deform_request(*replicas_[cur], r, contact_scratch_, field_of());
   replicas_[cur]->take_dirty_ranges();
   meta_[cur] = meta_[other];
   deform_hist_.record(clock_->now_ns() - t0);

@@ -236,6 +236,9 @@ class HapticLoop {
   /// Highest occupied slot + 1.
   std::size_t probe_count() const;
   const collision::VertexTree& tree() const { return *tree_; }
+  /// The session model the loop was built on (its field and tissue map),
+  /// or null when it was built from a mesh.
+  const SessionModel* model() const { return model_.get(); }
   /// The model as the haptic thread sees it now; use it only while the loop
   /// is stopped (both replicas are level then).
   const deform::DeformableSurface& surface() const { return *replicas_[current_.load()]; }
@@ -269,6 +272,8 @@ class HapticLoop {
   std::shared_ptr<const mesh::SurfaceMesh> mesh_;
   std::shared_ptr<const collision::VertexTree> tree_;
   deform::SurfaceOptions options_;
+  std::shared_ptr<const SessionModel> model_;  // when built from a model: its field and tissue map
+  const tissue::TissueField* field_of() const { return model_ ? model_->field.get() : nullptr; }
   std::unique_ptr<deform::DeformableSurface> replicas_[2];
   std::unique_ptr<LoopCore> core_;
 

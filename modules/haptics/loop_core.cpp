@@ -74,10 +74,15 @@ void apply_deform_edits(deform::DeformableSurface& surface, const DeformEdits& e
 }
 
 void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& r,
-                          std::vector<deform::Contact>& scratch) {
+                          std::vector<deform::Contact>& scratch, const tissue::TissueField* field) {
   apply_deform_edits(surface, r.edits);
   to_contacts(r.contacts, scratch);
   surface.set_contacts(scratch);
+  if (field && field->pulse_count > 0) {
+    std::array<double, 4> values{};
+    for (std::size_t p = 0; p < field->pulse_count && p < values.size(); ++p) values[p] = field->pulse_value(p, r.time);
+    surface.set_drive_values(values);
+  }
   if (r.dt > 0) surface.step(r.dt);
 }
 
@@ -100,8 +105,9 @@ PreparedProbe LoopCore::prepare(ProbeSetup s, const CoreConfig& config) {
 }
 
 LoopCore::LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& mesh, const CoreConfig& config,
-                   std::vector<ProbeSetup> probes)
-    : tree_(tree), config_(config), setups_(std::move(probes)) {
+                   std::vector<ProbeSetup> probes, const tissue::TissueField* field)
+    : tree_(tree), field_(field), config_(config), setups_(std::move(probes)) {
+  tissue_tick_.field = field_;
   config_.validate();
   if (setups_.empty()) throw std::invalid_argument("loop configuration: no probes");
   if (setups_.size() > kMaxProbes)
@@ -257,6 +263,12 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     cond[i] = c;
     probe_inputs_[dense].position = st.have_world ? st.world : parking_;
     probe_inputs_[dense].velocity = st.velocity;
+    if (field_ && field_->breathing.enabled && st.have_world) {
+      // Into the organ frame: where the breathing organ is now, and the
+      // probe's velocity relative to the organ point under it.
+      probe_inputs_[dense].velocity = st.velocity - field_->organ_velocity(st.world, t);
+      probe_inputs_[dense].position = field_->to_organ(st.world, t);
+    }
     slot_of_[dense] = static_cast<std::uint8_t>(i);
     ++dense;
   }
@@ -269,9 +281,16 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     for (std::size_t d = 0; d < dense; ++d) memory_[d] = state_.memory[slot_of_[d]];
     memory = memory_.data();
   }
+  const TissueTick* tissue = nullptr;
+  if (field_ && !field_->empty()) {
+    for (std::size_t p = 0; p < field_->pulse_count; ++p) tissue_tick_.pulse_value[p] = field_->pulse_value(p, t);
+    for (std::size_t r = 0; r < field_->dynamic_count; ++r)
+      tissue_tick_.dynamic_factor[r] = field_->dynamic_factor(r, t, state_.reactions);
+    tissue = &tissue_tick_;
+  }
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
               std::span<ProbeMemory>(memory, dense), std::span<ProbeOutput>(probe_outputs_.data(), dense),
-              state_.force, state_.shape);
+              state_.force, state_.shape, tissue);
   if (!packed)
     for (std::size_t d = 0; d < dense; ++d) state_.memory[slot_of_[d]] = memory_[d];
 
@@ -292,7 +311,7 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     const auto& mapping = st.mapping.mapping();
 
     r.sample = inputs[i].sample;
-    r.world = to_triple(probe_inputs_[d].position);
+    r.world = to_triple(st.have_world ? st.world : parking_);
     r.velocity = to_triple(st.velocity);
     if (st.spec.force_dof > 0) {
       std::uint32_t flags = 0;
@@ -317,6 +336,16 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     r.fault = static_cast<std::uint8_t>(st.safety.fault());
     r.path = static_cast<std::uint8_t>(out.path);
 
+    // Guarding: a press harder than the threshold inside a dynamic region
+    // (weight >= 1/2 at the contact point) sets it off, unless it is still on.
+    if (tissue && touching) {
+      for (std::size_t g = 0; g < field_->dynamic_count; ++g) {
+        const tissue::Guarding& gd = field_->dynamic[g].guarding;
+        double& at = state_.reactions.triggered_at[g];
+        const bool on = at >= 0 && t - at < gd.duration + gd.release;
+        if (gd.enabled && !on && out.region_weight[g] >= 0.5f && out.normal_reaction > gd.threshold) at = t;
+      }
+    }
     if (touching && contacts.count < kMaxProbes) {
       ContactRecord& cr = contacts.contacts[contacts.count++];
       cr.point = to_triple(out.contact.point);

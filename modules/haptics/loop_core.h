@@ -182,11 +182,12 @@ void merge_requests(DeformRequest& into, const DeformRequest& later);
 /// Throws only what the surface's edits throw for bad materials.
 void apply_deform_edits(deform::DeformableSurface& surface, const DeformEdits& edits);
 
-/// Applies a request to a surface: edits, contacts, step. `scratch` keeps
+/// Applies a request to a surface: edits, contacts, the pulse drives'
+/// values at the request's time (when `field` has pulses), step. `scratch` keeps
 /// its capacity between calls. Throws only what the surface's edits throw
 /// for bad materials (they were validated before they were queued).
 void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& request,
-                          std::vector<deform::Contact>& scratch);
+                          std::vector<deform::Contact>& scratch, const tissue::TissueField* field = nullptr);
 
 /// Everything one probe slot of the core remembers between ticks.
 struct CoreProbeState {
@@ -216,6 +217,7 @@ struct CoreState {
   double deform_phase = 0;            ///< deformation steps owed, in steps (0 .. 1)
   std::uint64_t generations = 0;      ///< deformation steps requested so far
   DeformEdits pending;                ///< edits waiting for the next request
+  tissue::ReactionState reactions;    ///< guarding reactions of the tissue field's dynamic regions
 };
 
 class LoopCore {
@@ -223,8 +225,14 @@ class LoopCore {
   /// `tree` and `mesh` must outlive the core. Throws std::invalid_argument
   /// for a bad configuration, too many probes or bad mappings/limits. The
   /// probes take slots 0 .. probes.size() - 1 with output disabled.
+  /// `field` (lesions, pulses, breathing, dynamic regions; may be null)
+  /// must outlive the core too. With breathing the probes are brought into
+  /// the organ frame before the contact query (contact points and depths in
+  /// results are in the organ frame; forces are taken as they are: the
+  /// breathing stretch is small and not applied to them).
   LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& mesh, const CoreConfig& config,
-           std::vector<ProbeSetup> probes);
+           std::vector<ProbeSetup> probes, const tissue::TissueField* field = nullptr);
+  const tissue::TissueField* field() const { return field_; }
 
   /// Checks and resolves a probe for an AddProbe command. Throws
   /// std::invalid_argument naming the probe and the bad field.
@@ -268,6 +276,8 @@ class LoopCore {
 
  private:
   const collision::VertexTree& tree_;
+  const tissue::TissueField* field_ = nullptr;
+  TissueTick tissue_tick_;
   CoreConfig config_;
   std::vector<ProbeSetup> setups_;
   CoreState state_;

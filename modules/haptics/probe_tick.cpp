@@ -12,8 +12,10 @@ namespace palpa::haptics {
 
 namespace {
 
-// The material of the virtual vertex: every parameter interpolated with the
-// barycentric weights; the model kind of the heaviest vertex.
+// The material of the virtual vertex: every parameter (modulus scales
+// applied) interpolated with the barycentric weights. Tissues all share the
+// Hertz law, so the force keeps its form across a region edge; corners of
+// different kinds (legacy N/m materials) take the heaviest corner's kind.
 deform::Material interpolate_material(const deform::DeformableSurface& surface, const mesh::Triangle& tri,
                                       const Vec3& b) {
   int heaviest = 0;
@@ -21,15 +23,17 @@ deform::Material interpolate_material(const deform::DeformableSurface& surface, 
   if (b[2] > b[heaviest]) heaviest = 2;
   deform::Material m;
   m.model = surface.material(tri[heaviest]).model;
-  m.mass = m.damping = m.stiffness = m.alpha = m.k2 = m.tau = 0;
+  m.mass = m.damping = m.stiffness = m.alpha = m.k2 = m.tau = m.hertz = m.relaxation = 0;
   for (int k = 0; k < 3; ++k) {
-    const deform::Material& mk = surface.material(tri[k]);
+    const deform::Material mk = surface.vertex_material(tri[k]);
     m.mass += b[k] * mk.mass;
     m.damping += b[k] * mk.damping;
     m.stiffness += b[k] * mk.stiffness;
     m.alpha += b[k] * mk.alpha;
     m.k2 += b[k] * mk.k2;
     m.tau += b[k] * mk.tau;
+    m.hertz += b[k] * mk.hertz;
+    m.relaxation += b[k] * mk.relaxation;
   }
   return m;
 }
@@ -37,7 +41,7 @@ deform::Material interpolate_material(const deform::DeformableSurface& surface, 
 // One probe against the surface; `out` starts cleared (no contact, no force).
 void tick_one(const deform::DeformableSurface& surface, const collision::VertexTree& tree, const ProbeInput& in,
               ProbeMemory& memory, ProbeOutput& out, const ForceParams& params,
-              const deform::ShapeFunction& shape) {
+              const deform::ShapeFunction& shape, const TissueTick* tissue) {
   const mesh::SurfaceMesh& mesh = surface.mesh();
   const auto& states = surface.state().vertices;
   // Contact only if proven below; the walk needs last tick's verdict.
@@ -66,11 +70,40 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
 
   // Normal reaction of the interpolated local model at the probe's height
   // h = -depth moving at dh/dt = v . N (section III.E).
-  const deform::Material m = interpolate_material(surface, tri, b);
+  deform::Material m = interpolate_material(surface, tri, b);
   const double q = b[0] * states[tri[0]].q + b[1] * states[tri[1]].q + b[2] * states[tri[2]].q;
-  const double h = -out.height.depth;
+  double h = -out.height.depth;
   const double dhdt = velocity.dot(out.surface.normal);
-  const double fn = deform::local_model(m.model).restoring_force(m, h, dhdt, q);
+  const tissue::TissueField* field = tissue ? tissue->field : nullptr;
+  if (field) {
+    // The pulse lifts the rest surface under the probe: the indentation is
+    // measured from the lifted surface.
+    for (std::size_t p = 0; p < field->pulse_count; ++p) {
+      const auto& w = field->pulse_weight[p];
+      const double wi = b[0] * w[tri[0]] + b[1] * w[tri[1]] + b[2] * w[tri[2]];
+      h -= wi * tissue->pulse_value[p];
+    }
+    // Dynamic regions (keyframes, guarding) scale the modulus where they are.
+    double factor = 1.0;
+    for (std::size_t r = 0; r < field->dynamic_count; ++r) {
+      const auto& w = field->dynamic_weight[r];
+      const double wi = b[0] * w[tri[0]] + b[1] * w[tri[1]] + b[2] * w[tri[2]];
+      out.region_weight[r] = static_cast<float>(wi);
+      factor *= 1.0 + wi * (tissue->dynamic_factor[r] - 1.0);
+    }
+    if (factor != 1.0 && factor > 0) m = deform::scaled(m, factor);
+  }
+  const deform::LocalModel& model = deform::local_model(m.model);
+  double fn = model.restoring_force(m, h, dhdt, q);
+  if (field && field->lesion_count > 0 && h < 0) {
+    // Lesions add their contrast times the quasi-static force (lesion.h).
+    const double d = -h;
+    const Vec3 tip = out.surface.point - d * out.surface.normal;
+    double contrast = 0.0;
+    for (std::size_t l = 0; l < field->lesion_count; ++l)
+      contrast += tissue::lesion_contrast(field->lesions[l], tip, d, field->tip_radius);
+    fn += contrast * -model.equilibrium_force(m, h);
+  }
   out.normal_reaction = std::isfinite(fn) ? std::max(0.0, fn) : 0.0;
 
   // The actual normal: the deformed normals (eq. 3) blended at the virtual vertex.
@@ -94,7 +127,7 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
 void haptic_tick(const deform::DeformableSurface& surface, const collision::VertexTree& tree,
                  std::span<const ProbeInput> probes, std::span<ProbeMemory> memory,
                  std::span<ProbeOutput> outputs, const ForceParams& params,
-                 const deform::ShapeFunction& shape) {
+                 const deform::ShapeFunction& shape, const TissueTick* tissue) {
   const std::size_t n = std::min({probes.size(), memory.size(), outputs.size()});
   // Probes in contact will start from their last triangle: ask for its
   // vertices' data for all probes at once, so their cache misses overlap
@@ -124,7 +157,7 @@ void haptic_tick(const deform::DeformableSurface& surface, const collision::Vert
   // Each probe independently; mismatched sizes run the common prefix.
   for (std::size_t i = 0; i < n; ++i) {
     outputs[i] = ProbeOutput{};
-    tick_one(surface, tree, probes[i], memory[i], outputs[i], params, shape);
+    tick_one(surface, tree, probes[i], memory[i], outputs[i], params, shape, tissue);
   }
 }
 

@@ -9,6 +9,9 @@
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
 #include "haptics/force.h"
+#include "tissue/field.h"
+
+#include <array>
 
 #include <span>
 
@@ -32,6 +35,18 @@ struct ProbeOutput {
   Index nearest_vertex = kNoIndex;
   collision::ContactPath path = collision::ContactPath::None;  ///< how the contact query answered
   deform::Contact contact;            ///< the contact to feed the surface (valid when in_contact)
+  /// Membership weight of the contact point in each dynamic region of the
+  /// tissue field (0 without a field or contact).
+  std::array<float, tissue::kMaxDynamicRegions> region_weight{};
+};
+
+/// What one tick needs of the tissue beyond the surface's materials:
+/// lesions, pulse lifts and dynamic-region modulus factors at this tick's
+/// time (computed once per tick by the caller).
+struct TissueTick {
+  const tissue::TissueField* field = nullptr;
+  std::array<double, tissue::kMaxPulses> pulse_value{};           ///< m, per pulse
+  std::array<double, tissue::kMaxDynamicRegions> dynamic_factor{1, 1, 1, 1};  ///< per dynamic region
 };
 
 /// Per-probe persistent data between ticks. Value-initialised = no history.
@@ -51,10 +66,14 @@ struct ProbeMemory {
 
 /// Runs one tick for probes.size() probes against the surface's current
 /// state. `outputs` and `memory` must have the same size as `probes`.
-/// `shape` is the shape function given to each contact.
+/// `shape` is the shape function given to each contact. With `tissue`, the
+/// normal reaction at indentation d is the local model's at
+/// d + (the pulse lift at the contact point), with the modulus multiplied
+/// by the dynamic regions' factors there, plus the lesions' contrast
+/// (tissue/lesion.h) times its quasi-static part.
 void haptic_tick(const deform::DeformableSurface& surface, const collision::VertexTree& tree,
                  std::span<const ProbeInput> probes, std::span<ProbeMemory> memory,
                  std::span<ProbeOutput> outputs, const ForceParams& params,
-                 const deform::ShapeFunction& shape);
+                 const deform::ShapeFunction& shape, const TissueTick* tissue = nullptr);
 
 }  // namespace palpa::haptics

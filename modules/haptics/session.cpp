@@ -6,7 +6,9 @@
 namespace palpa::haptics {
 
 std::shared_ptr<const SessionModel> SessionModel::make(std::shared_ptr<const mesh::SurfaceMesh> mesh,
-                                                       deform::SurfaceOptions options, const CoreConfig& config) {
+                                                       deform::SurfaceOptions options, const CoreConfig& config,
+                                                       std::shared_ptr<const tissue::TissueField> field,
+                                                       std::shared_ptr<const deform::MaterialMap> tissue_map) {
   if (!mesh) throw std::invalid_argument("session: no surface mesh");
   if (mesh->vertex_count() == 0) throw std::invalid_argument("session: the surface has no vertices");
   config.validate();
@@ -15,7 +17,28 @@ std::shared_ptr<const SessionModel> SessionModel::make(std::shared_ptr<const mes
   m->mesh = std::move(mesh);
   m->options = options;
   m->config = config;
+  if (field) {
+    for (std::size_t p = 0; p < field->pulse_count; ++p)
+      if (field->pulse_weight[p].size() != m->mesh->vertex_count())
+        throw std::invalid_argument("session: the tissue field's pulse weights do not fit the mesh");
+    for (std::size_t r = 0; r < field->dynamic_count; ++r)
+      if (field->dynamic_weight[r].size() != m->mesh->vertex_count())
+        throw std::invalid_argument("session: the tissue field's region weights do not fit the mesh");
+  }
+  m->field = std::move(field);
+  m->tissue_map = std::move(tissue_map);
   return m;
+}
+
+void SessionModel::prepare_surface(deform::DeformableSurface& surface) const {
+  if (tissue_map) surface.set_tissue_map(*tissue_map);
+  if (field && field->pulse_count > 0) {
+    std::vector<Index> vertices = field->pulse_vertices;
+    std::vector<std::array<float, 4>> weights(vertices.size());
+    for (std::size_t j = 0; j < vertices.size(); ++j)
+      for (std::size_t p = 0; p < field->pulse_count; ++p) weights[j][p] = field->pulse_weight[p][vertices[j]];
+    surface.set_drives(std::move(vertices), std::move(weights));
+  }
 }
 
 MaterialSource material_source_of(const deform::MaterialArrays& m) {
@@ -36,6 +59,8 @@ MaterialSource material_source_of(const deform::MaterialArrays& m) {
 void apply_material_source(deform::DeformableSurface& surface, const MaterialSource& source) {
   if (source.uniform)
     surface.set_uniform_material(source.material);
+  else if (source.tissue_map)
+    surface.set_tissue_map(*source.tissue_map);
   else if (source.map_ptr != nullptr)
     surface.set_materials(*source.map_ptr);
 }
@@ -46,7 +71,14 @@ Session::Session(std::shared_ptr<const SessionModel> model, deform::MaterialArra
   if (!model_ || !model_->mesh || !model_->tree) throw std::invalid_argument("session: no model");
   materials_ = material_source_of(materials);
   surface_ = std::make_unique<deform::DeformableSurface>(model_->mesh, std::move(materials), model_->options);
-  core_ = std::make_unique<LoopCore>(*model_->tree, *model_->mesh, model_->config, std::move(probes));
+  model_->prepare_surface(*surface_);
+  if (model_->tissue_map) {
+    materials_ = MaterialSource{};
+    materials_.uniform = false;
+    materials_.tissue_map = model_->tissue_map;
+  }
+  core_ = std::make_unique<LoopCore>(*model_->tree, *model_->mesh, model_->config, std::move(probes),
+                                     model_->field.get());
   surface_->take_dirty_ranges();
 }
 
@@ -97,7 +129,7 @@ void Session::note_materials(const DeformEdits& e) {
 }
 
 void Session::deform(const DeformRequest& r) {
-  apply_deform_request(*surface_, r, scratch_);
+  apply_deform_request(*surface_, r, scratch_, model_->field.get());
   note_materials(r.edits);
   generation_ = r.generation;
   model_time_ = r.time;

@@ -19,6 +19,7 @@
 // bits (tests/loop/test_session.cpp checks it).
 
 #include "haptics/loop_core.h"
+#include "tissue/field.h"
 
 #include <limits>
 #include <memory>
@@ -33,11 +34,21 @@ struct SessionModel {
   std::shared_ptr<const collision::VertexTree> tree;
   deform::SurfaceOptions options;
   CoreConfig config;  ///< rates and the initial force and shape parameters
+  /// Lesions, pulses, breathing and dynamic regions (null: none). The
+  /// surfaces get its pulse drives; the ticks read it.
+  std::shared_ptr<const tissue::TissueField> field;
+  /// The tissue map a session starts with (a scenario's; null: the
+  /// materials given to the Session or HapticLoop).
+  std::shared_ptr<const deform::MaterialMap> tissue_map;
 
   /// Builds the vertex tree over `mesh` (O(V log V)). Throws
   /// std::invalid_argument for a null or empty mesh or a bad configuration.
   static std::shared_ptr<const SessionModel> make(std::shared_ptr<const mesh::SurfaceMesh> mesh,
-                                                  deform::SurfaceOptions options, const CoreConfig& config);
+                                                  deform::SurfaceOptions options, const CoreConfig& config,
+                                                  std::shared_ptr<const tissue::TissueField> field = nullptr,
+                                                  std::shared_ptr<const deform::MaterialMap> tissue_map = nullptr);
+  /// Gives a new surface of this model its tissue map and pulse drives.
+  void prepare_surface(deform::DeformableSurface& surface) const;
 };
 
 /// The material map in force: one material, or a per-vertex map kept alive here.
@@ -46,6 +57,7 @@ struct MaterialSource {
   deform::Material material;                            ///< when uniform
   std::shared_ptr<const deform::MaterialArrays> map;    ///< otherwise
   const deform::MaterialArrays* map_ptr = nullptr;      ///< the map the commands named (== map.get() or external)
+  std::shared_ptr<const deform::MaterialMap> tissue_map; ///< a tissue map (uniform false, map null)
 };
 
 /// The source of `materials`: one material when every vertex has it, else

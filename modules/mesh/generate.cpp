@@ -1,8 +1,9 @@
 // Procedural meshes. Spheres and the default organ share one construction: a
 // cube whose faces are split into n x n cells, with the lattice points pushed
 // onto the unit sphere (equi-angular, so cells are nearly square). A sphere
-// scales those directions by its radius; the organ moves each one out along
-// its ray to where the organ's implicit function changes sign.
+// scales those directions by its radius; the organ shapes (the default organ,
+// the breast, the abdomen) move each one out along its ray from the shape's
+// centre to where the shape's implicit function changes sign.
 
 #include "mesh/generate.h"
 
@@ -105,8 +106,32 @@ Index cells_for(std::size_t target) {
   return Index(std::max(1.0, n));
 }
 
+constexpr double kFar = 0.30;  // beyond every organ shape in every direction from its centre, m
+
+// A shape star-shaped around `centre`: along each cube-sphere ray the function
+// is negative at the centre and positive at kFar, with one sign change: bisect
+// to it (2^-45 of 0.3 m is far below float precision). The triangles keep the
+// cube-sphere's outward orientation, since the radial map preserves it.
+SurfaceMesh sample_star_shape(std::size_t target_vertices, double (*implicit)(const Vec3&), const Vec3& centre) {
+  CubeSphere s = make_cube_sphere(cells_for(target_vertices));
+  SurfaceMesh mesh;
+  mesh.positions.resize(s.directions.size());
+  for (std::size_t i = 0; i < s.directions.size(); ++i) {
+    const Vec3& d = s.directions[i];
+    double inside = 0.0, outside = kFar;
+    for (int it = 0; it < 45; ++it) {
+      const double mid = 0.5 * (inside + outside);
+      (implicit(centre + mid * d) < 0 ? inside : outside) = mid;
+    }
+    mesh.positions[i] = centre + 0.5 * (inside + outside) * d;
+  }
+  mesh.triangles = std::move(s.triangles);
+  finalize(mesh);
+  return mesh;
+}
+
 // ---------------------------------------------------------------------------
-// Building blocks of the organ's implicit function (all lengths in m).
+// Building blocks of the organ shapes' implicit functions (all lengths in m).
 
 double smoothstep(double e0, double e1, double x) {
   const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
@@ -132,7 +157,6 @@ double smooth_max(double a, double b, double k) { return -smooth_min(-a, -b, k);
 // Frame: x towards the patient's right (the big right lobe), y backwards
 // (posterior), z up (cranial). The star centre lies in the thick part, near the middle.
 const Vec3 kCenter(0.012, 0.004, 0.004);
-constexpr double kFar = 0.30;  // beyond the organ in every direction, m
 
 // The body: an ellipsoid-like wedge whose thickness, depth and height change
 // along x, from the thick, rounded right lobe to the thin left lobe tip.
@@ -176,6 +200,89 @@ double organ_implicit(const Vec3& p) {
 Vec3 organ_center() { return kCenter; }
 
 // ---------------------------------------------------------------------------
+// The breast: the upper half of an ellipsoid standing on the chest wall (the
+// z = 0 plane), its lower pole (-y) fuller than the upper and its apex sheared
+// towards -y (the droop), a raised areola and a nipple added as height bumps
+// on the apex, and the chest-wall side cut flat with a rounded rim.
+namespace {
+constexpr double kBreastHalfX = 0.070;      // half width at the base, m
+constexpr double kBreastUpper = 0.066;      // base radius towards +y (cranial), m
+constexpr double kBreastLower = 0.072;      // base radius towards -y (the fuller lower pole), m
+constexpr double kBreastDome = 0.0535;      // dome height without areola and nipple, m
+constexpr double kBreastDroop = 0.010;      // apex offset towards -y, m
+constexpr double kBreastRim = 0.008;        // blend width of the rim rounding, m
+constexpr double kAreolaHeight = 0.0015;    // m
+constexpr double kAreolaRadius = 0.016;     // flat top, then a smooth edge out to kAreolaEdge, m
+constexpr double kAreolaEdge = 0.022;       // m
+constexpr double kNippleHeight = 0.005;     // m
+constexpr double kNippleRadius = 0.0075;    // support radius of its (1 - r^2/R^2)^3 profile, m
+const Vec3 kBreastCenter(0.0, -0.004, 0.025);
+
+// The nipple-areola complex as a height above the dome, at horizontal distance r from the apex axis.
+double nipple_areola_height(double r) {
+  const double u2 = std::min(1.0, (r * r) / (kNippleRadius * kNippleRadius));
+  const double nipple = kNippleHeight * (1.0 - u2) * (1.0 - u2) * (1.0 - u2);
+  const double areola = kAreolaHeight * (1.0 - smoothstep(kAreolaRadius, kAreolaEdge, r));
+  return nipple + areola;
+}
+}  // namespace
+
+double breast_implicit(const Vec3& p) {
+  // The dome in sheared coordinates (y + shear z): the z = 0 section stays the
+  // base ellipse and the apex (z = kBreastDome) moves to y = -kBreastDroop. A
+  // shear keeps the volume and the convexity of the half ellipsoid.
+  const double shear = kBreastDroop / kBreastDome;
+  const Vec3 q(p.x(), p.y() + shear * p.z(), p.z());
+  const Vec3 radii(kBreastHalfX, q.y() > 0 ? kBreastUpper : kBreastLower, kBreastDome);
+  double dome = ellipsoid(q, Vec3::Zero(), radii);
+  // Near the apex the dome's value is close to the height above its surface,
+  // so subtracting a height raises the surface by about that much.
+  const double r = std::hypot(p.x(), p.y() + kBreastDroop);
+  if (r < kAreolaEdge) dome -= nipple_areola_height(r);
+  // The chest-wall side: the half-space z >= 0, the rim rounded.
+  return smooth_max(dome, -p.z(), kBreastRim);
+}
+
+Vec3 breast_center() { return kBreastCenter; }
+
+// ---------------------------------------------------------------------------
+// The abdomen: a vertical prism over a rounded rectangle (the flanks), cut by
+// the flat back below and by a concave paraboloid (the belly) above, the
+// edges rounded by smooth maxima. Each piece is a convex function and the
+// smooth maximum is convex and non-decreasing in both arguments, so the
+// function is convex and the abdomen star-shaped around any inner point.
+namespace {
+constexpr double kAbdomenHalfX = 0.15;     // m
+constexpr double kAbdomenHalfY = 0.11;     // m
+constexpr double kAbdomenCorner = 0.05;    // plan-view corner radius, m
+constexpr double kAbdomenBack = -0.06;     // z of the flat back, m
+constexpr double kAbdomenTop = 0.06;       // z of the belly at the centre, m
+constexpr double kBellyDropX = 0.020;      // belly lower by this at x = +-kAbdomenHalfX, m
+constexpr double kBellyDropY = 0.012;      // and by this at y = +-kAbdomenHalfY, m
+constexpr double kFlankBlend = 0.03;       // blend width belly-flank, m
+constexpr double kBackBlend = 0.01;        // blend width back-flank, m
+// Nearer the belly than the back, so more of the cube-sphere's rays land on the belly.
+const Vec3 kAbdomenCenter(0.0, 0.0, 0.01);
+
+double belly_height(double x, double y) {
+  const double u = x / kAbdomenHalfX, v = y / kAbdomenHalfY;
+  return kAbdomenTop - kBellyDropX * u * u - kBellyDropY * v * v;
+}
+}  // namespace
+
+double abdomen_implicit(const Vec3& p) {
+  // Signed distance to the rounded rectangle in the (x, y) plane.
+  const double qx = std::abs(p.x()) - (kAbdomenHalfX - kAbdomenCorner);
+  const double qy = std::abs(p.y()) - (kAbdomenHalfY - kAbdomenCorner);
+  const double flank = std::hypot(std::max(qx, 0.0), std::max(qy, 0.0)) + std::min(std::max(qx, qy), 0.0) - kAbdomenCorner;
+  const double back = kAbdomenBack - p.z();
+  const double belly = p.z() - belly_height(p.x(), p.y());  // the slope stays below 0.3: close to a distance
+  return smooth_max(smooth_max(flank, back, kBackBlend), belly, kFlankBlend);
+}
+
+Vec3 abdomen_center() { return kAbdomenCenter; }
+
+// ---------------------------------------------------------------------------
 SurfaceMesh make_sphere(std::size_t target_vertices, double radius, const Vec3& center) {
   CubeSphere s = make_cube_sphere(cells_for(target_vertices));
   SurfaceMesh mesh;
@@ -207,23 +314,15 @@ SurfaceMesh make_plane(int nx, int ny, double spacing) {
 }
 
 SurfaceMesh make_organ(std::size_t target_vertices) {
-  CubeSphere s = make_cube_sphere(cells_for(target_vertices));
-  SurfaceMesh mesh;
-  mesh.positions.resize(s.directions.size());
-  // Along each ray the function is negative at the centre and positive at
-  // kFar, with one sign change: bisect to it (2^-45 of 0.3 m is far below float precision).
-  for (std::size_t i = 0; i < s.directions.size(); ++i) {
-    const Vec3& d = s.directions[i];
-    double inside = 0.0, outside = kFar;
-    for (int it = 0; it < 45; ++it) {
-      const double mid = 0.5 * (inside + outside);
-      (organ_implicit(kCenter + mid * d) < 0 ? inside : outside) = mid;
-    }
-    mesh.positions[i] = kCenter + 0.5 * (inside + outside) * d;
-  }
-  mesh.triangles = std::move(s.triangles);
-  finalize(mesh);
-  return mesh;
+  return sample_star_shape(target_vertices, organ_implicit, kCenter);
+}
+
+SurfaceMesh make_breast(std::size_t target_vertices) {
+  return sample_star_shape(target_vertices, breast_implicit, kBreastCenter);
+}
+
+SurfaceMesh make_abdomen(std::size_t target_vertices) {
+  return sample_star_shape(target_vertices, abdomen_implicit, kAbdomenCenter);
 }
 
 }  // namespace palpa::mesh

@@ -15,6 +15,7 @@ VTK_MODULE_INIT(vtkRenderingOpenGL2);
 
 #include <vtk_glew.h>
 #include <vtkActor.h>
+#include <vtkMatrix4x4.h>
 #include <vtkCellArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkFloatArray.h>
@@ -464,6 +465,13 @@ SurfaceView::~SurfaceView() {
 const mesh::SurfaceMesh& SurfaceView::mesh() const { return *impl_->data.mesh; }
 UploadPath SurfaceView::path() const { return impl_->data.path; }
 vtkActor* SurfaceView::actor() const { return impl_->actor; }
+
+void SurfaceView::set_transform(const Eigen::Matrix4d& m) {
+  vtkNew<vtkMatrix4x4> vm;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) vm->SetElement(r, c, m(r, c));
+  impl_->actor->SetUserMatrix(vm);
+}
 const UploadStats& SurfaceView::stats() const { return impl_->data.stats; }
 
 void SurfaceView::set_color(double r, double g, double b) { impl_->actor->GetProperty()->SetColor(r, g, b); }

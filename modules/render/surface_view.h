@@ -101,6 +101,10 @@ class SurfaceView {
   vtkActor* actor() const;
   /// Surface colour, RGB in 0..1.
   void set_color(double r, double g, double b);
+  /// Organ frame -> world (a breathing organ's motion), 4x4 affine, applied
+  /// as the actor's user matrix after eq. (2); identity by default. Picks
+  /// and bounds stay in the organ frame.
+  void set_transform(const Eigen::Matrix4d& organ_to_world);
 
   /// Chooses the VBO shift/scale mode (before the first render).
   void set_shift_scale(ShiftScale mode);

@@ -5,6 +5,7 @@
 // error names the file and the JSON pointer of the fault, e.g.
 //   case.json: /lesions/1/radius_mm: expected a positive number of millimetres, got -3
 
+#include "core/types.h"
 #include "deform/shape_function.h"
 #include "tissue/field.h"
 #include "tissue/lesion.h"
@@ -40,11 +41,15 @@ struct OrganRef {
   std::filesystem::path resolved;   ///< absolute (set by the reader)
   std::string unit = "mm";          ///< the mesh file's unit: m, cm, mm
   std::string sha256;               ///< of the mesh file's bytes (hex; empty: not checked)
+  friend bool operator==(const OrganRef&, const OrganRef&) = default;
 };
 
 struct ProbeSpec {
   double tip_radius = tissue::kDefaultTipRadius;  ///< m
   deform::ShapeFunction shape;                    ///< kind and support radius (m)
+  friend bool operator==(const ProbeSpec& a, const ProbeSpec& b) {
+    return a.tip_radius == b.tip_radius && a.shape.kind == b.shape.kind && a.shape.radius == b.shape.radius;
+  }
 };
 
 /// A lesion as written: either a centre, or a surface point and a depth
@@ -54,6 +59,7 @@ struct LesionSpec {
   bool from_surface = false;
   Vec3 surface_point = Vec3::Zero();  ///< m, organ frame (the nearest surface point is used)
   double depth = 0;                   ///< m, of the centre below that point
+  friend bool operator==(const LesionSpec&, const LesionSpec&) = default;
 };
 
 /// Seeded random lesions: `count` lesions with radius, centre depth and
@@ -67,6 +73,7 @@ struct RandomLesions {
   double ratio_min = 3, ratio_max = 6;             ///< dimensionless
   std::string region;
   tissue::Visibility visibility = tissue::Visibility::Hidden;
+  friend bool operator==(const RandomLesions&, const RandomLesions&) = default;
 };
 
 /// What the trainee reports about each lesion found.
@@ -74,6 +81,7 @@ struct ReportFields {
   bool position = true;
   bool size = true;
   bool consistency = true;
+  friend bool operator==(const ReportFields&, const ReportFields&) = default;
 };
 
 /// Scoring settings the assessment uses.
@@ -86,6 +94,7 @@ struct Scoring {
   double weight_consistency = 0.1;
   double weight_force = 0.15;        ///< staying under the force limit
   double weight_coverage = 0.1;      ///< of the organ surface palpated
+  friend bool operator==(const Scoring&, const Scoring&) = default;
 };
 
 struct Task {
@@ -94,6 +103,7 @@ struct Task {
   ReportFields report;
   double force_limit = 8.0;  ///< N: above this the trainee pressed too hard
   Scoring scoring;
+  friend bool operator==(const Task&, const Task&) = default;
 };
 
 struct Scenario {
@@ -103,6 +113,10 @@ struct Scenario {
   OrganRef organ;
   ProbeSpec probe;
   std::vector<tissue::Tissue> tissues;   ///< named; presets resolved to values
+  /// Per tissue (same length as tissues, or empty: none): the preset key it
+  /// was made from ("" for none). Saved as "preset" plus only the values
+  /// that differ from the preset, so a file keeps saying where its numbers came from.
+  std::vector<std::string> tissue_presets;
   std::string base_tissue;               ///< a name in tissues
   std::vector<tissue::Region> regions;   ///< in the order they combine
   std::vector<LesionSpec> lesions;
@@ -112,17 +126,34 @@ struct Scenario {
   std::vector<tissue::DynamicRegion> dynamic_regions;
   Task task;
   std::filesystem::path file;            ///< where it was read from (not written)
+  friend bool operator==(const Scenario&, const Scenario&) = default;
 };
 
+/// Largest scenario file load_scenario reads, bytes.
+inline constexpr std::uintmax_t kMaxScenarioBytes = 16u << 20;
+
 /// Reads and validates a scenario file. Refuses a non-regular file or one
-/// over 16 MiB. Throws ScenarioError.
+/// over kMaxScenarioBytes (16 MiB). The organ file (unless "default") and
+/// region files must exist; the organ's SHA-256 is checked when given.
+/// Throws ScenarioError.
 Scenario load_scenario(const std::filesystem::path& file);
-/// Parses scenario JSON text; `file` names it in messages and resolves relative paths.
+/// Parses scenario JSON text; `file` names it in messages and resolves
+/// relative paths. The same checks as load_scenario but the file's own
+/// (unknown and duplicate keys, types, ranges, names referred to, the organ
+/// and region files, the SHA-256). Throws ScenarioError.
 Scenario parse_scenario(const std::string& text, const std::filesystem::path& file);
-/// The JSON text of a scenario (file units: mm, kPa, N, s), 2-space indented, keys in a fixed order.
+/// The JSON text of a scenario (file units: mm, kPa, N, s), 2-space indented
+/// (arrays of plain values on one line), keys in a fixed order, numbers
+/// rounded to 12 significant digits: loading it and writing it again gives the same bytes.
 std::string to_json_text(const Scenario& s);
-/// Writes atomically: a temporary file in the same folder, flushed, then
-/// renamed over `file`; on any failure the old file is left as it was.
+/// The text with relative paths (organ, region files) written relative to
+/// `base_dir` (absolute); to_json_text(s) uses the folder of s.file (paths
+/// as written when s.file is empty).
+std::string to_json_text(const Scenario& s, const std::filesystem::path& base_dir);
+/// Writes atomically: the text goes to "<file>.tmp" in the same folder,
+/// fsync'd, then renamed over `file` (and the folder fsync'd); on any
+/// failure the temporary is removed and the old file is left as it was.
+/// Relative paths are written relative to the new file's folder.
 /// Throws ScenarioError naming the file.
 void save_scenario(const Scenario& s, const std::filesystem::path& file);
 /// A human summary for `palpa scenario check`.

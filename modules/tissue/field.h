@@ -6,6 +6,7 @@
 // session time (s) and of the recorded state, so a replay is exact.
 
 #include "core/types.h"
+#include "mesh/surface_mesh.h"
 #include "tissue/lesion.h"
 
 #include <array>
@@ -133,8 +134,25 @@ struct TissueField {
   /// Organ frame -> world at time t (breathing), and its inverse.
   Vec3 to_world(const Vec3& x, double t) const;
   Vec3 to_organ(const Vec3& world, double t) const;
+  /// to_world as a 4x4 affine matrix (for drawing the organ where it is).
+  Eigen::Matrix4d organ_to_world(double t) const;
   /// Velocity (m/s, world frame) of the organ point that is at `world` at time t.
   Vec3 organ_velocity(const Vec3& world, double t) const;
 };
+
+/// Builds the field of a model: lesions (at most kMaxLesions), pulses (at
+/// most kMaxPulses; each vertex within a vessel's radius of its path gets
+/// weight lesion_falloff(distance / radius)), breathing, and dynamic regions
+/// (at most kMaxDynamicRegions, keyframes at most kMaxKeyframes each) with
+/// their per-vertex weights (tissue::region_weights of their regions, one
+/// array per dynamic region). Throws std::invalid_argument naming what is
+/// out of range ("lesion 'a': semi-axis must be positive and finite, got 0 m",
+/// "33 lesions: at most 32").
+TissueField make_field(const mesh::SurfaceMesh& mesh, double tip_radius, const std::vector<Lesion>& lesions,
+                       const std::vector<Pulse>& pulses, const Breathing& breathing,
+                       const std::vector<DynamicRegion>& dynamic, std::vector<std::vector<float>> dynamic_weights);
+
+/// Distance (m) from p to the polyline (>= 1 point).
+double polyline_distance(const std::vector<Vec3>& path, const Vec3& p);
 
 }  // namespace palpa::tissue

@@ -2,7 +2,10 @@
 // xvfb_run.sh): it opens on the default organ and draws it, a mouse
 // press-and-drag on the organ makes a contact with a force through the
 // real-time haptic loop, a scripted device probe drives a contact, bad files
-// and bad devices show an error and keep the scene, and the rest of the
+// and bad devices show an error and keep the scene, the kPa material panel
+// reaches the loop as the Hertz material, scenarios open (menu, drop, recent)
+// with their task and title, a bad one keeps the scene, hidden lesions are
+// never drawn, a breathing organ is drawn where it is, and the rest of the
 // window's promises. The loop runs on its own threads: the tests wait for
 // conditions with a timeout and never assert wall-time figures.
 
@@ -13,9 +16,20 @@
 #include "mesh/io.h"
 #include "mesh/organ.h"
 #include "render/surface_view.h"
+#include "scenario/scenario.h"
+#include "tissue/tissue.h"
 
+#include <vtkActor.h>
+#include <vtkMatrix4x4.h>
+
+#include <QAction>
 #include <QApplication>
+#include <QComboBox>
+#include <QDockWidget>
 #include <QDoubleSpinBox>
+#include <QFileInfo>
+#include <QGroupBox>
+#include <QPushButton>
 #include <QDropEvent>
 #include <QElapsedTimer>
 #include <QLabel>
@@ -264,25 +278,341 @@ TEST_F(MainWindowTest, ADroppedFileOpens) {
   EXPECT_EQ(w->workbench().organ().name, "drop.ply");
 }
 
-TEST_F(MainWindowTest, MaterialPanelAppliesAtOnceAndIsRememberedNextTime) {
+TEST_F(MainWindowTest, TheKpaPanelReachesTheLoopAsTheHertzMaterialAndIsRememberedNextTime) {
+  tissue::Tissue t;
+  double tip = 0;
   {
     auto w = open_window();
-    auto* stiffness = w->findChild<QDoubleSpinBox*>("stiffness");
-    ASSERT_NE(stiffness, nullptr);
-    stiffness->setValue(777);
-    // The running loop takes the new material as an edit at its next step.
+    auto spin = [&](const char* name) {
+      auto* s = w->findChild<QDoubleSpinBox*>(name);
+      EXPECT_NE(s, nullptr) << name;
+      return s;
+    };
+    // Every field with its unit, and a tooltip saying so.
+    EXPECT_EQ(spin("youngsModulus")->suffix(), " kPa");
+    EXPECT_EQ(spin("stiffening")->suffix(), " /mm");
+    EXPECT_EQ(spin("tipRadius")->suffix(), " mm");
+    EXPECT_EQ(spin("relaxationTime")->suffix(), " s");
+    for (const char* name : {"youngsModulus", "poisson", "dampingRatio", "relaxationTime", "relaxationFraction",
+                             "stiffening", "tipRadius"})
+      EXPECT_FALSE(spin(name)->toolTip().isEmpty()) << name;
+    spin("youngsModulus")->setValue(12.5);
+    spin("poisson")->setValue(0.45);
+    spin("dampingRatio")->setValue(0.8);
+    spin("relaxationTime")->setValue(0.5);
+    spin("relaxationFraction")->setValue(0.25);
+    spin("stiffening")->setValue(0.02);
+    spin("tipRadius")->setValue(6);
+    // The running loop takes the Hertz material of these values as an edit.
+    t.youngs_modulus = spin("youngsModulus")->value() * 1e3;
+    t.poisson = spin("poisson")->value();
+    t.damping_ratio = spin("dampingRatio")->value();
+    t.relaxation_time = spin("relaxationTime")->value();
+    t.relaxation_fraction = spin("relaxationFraction")->value();
+    t.stiffening = spin("stiffening")->value() * 1e3;
+    tip = spin("tipRadius")->value() * 1e-3;
+    const deform::Material expected = tissue::hertz_material(t, tip, w->workbench().material().mass);
     ASSERT_NE(w->workbench().loop(), nullptr);
     ASSERT_TRUE(wait_until([&] { return w->workbench().settled(); }));
-    EXPECT_EQ(w->workbench().loop()->surface().materials().stiffness.front(), 777);
-    EXPECT_EQ(w->workbench().material().stiffness, 777);
+    const deform::Material got = w->workbench().loop()->surface().material(0);
+    EXPECT_EQ(got.model, deform::LocalModelKind::Hertz);
+    EXPECT_EQ(got.hertz, expected.hertz);
+    EXPECT_EQ(got.damping, expected.damping);
+    EXPECT_EQ(got.mass, expected.mass);
+    EXPECT_EQ(got.tau, expected.tau);
+    EXPECT_EQ(got.relaxation, expected.relaxation);
+    EXPECT_EQ(got.alpha, expected.alpha);
+    EXPECT_EQ(got.stiffness, expected.stiffness);
+    EXPECT_EQ(got, expected);
+    EXPECT_EQ(w->workbench().material().tissue.youngs_modulus, 12.5e3);
     w->findChild<QDoubleSpinBox*>("radius")->setValue(31);
     EXPECT_NEAR(w->workbench().material().radius, 0.031, 1e-12);
     w->close();
   }
   auto again = open_window();
-  EXPECT_EQ(again->workbench().material().stiffness, 777);
-  EXPECT_EQ(again->workbench().materials().stiffness.front(), 777);
+  EXPECT_EQ(again->workbench().material().law, MaterialLaw::Hertz);
+  EXPECT_EQ(again->workbench().material().tissue.youngs_modulus, t.youngs_modulus);
+  EXPECT_EQ(again->workbench().material().tissue.stiffening, t.stiffening);
+  EXPECT_EQ(again->workbench().material().tip_radius, tip);
+  EXPECT_EQ(again->workbench().materials().at(0), tissue::hertz_material(t, tip, again->workbench().material().mass));
   EXPECT_NEAR(again->workbench().material().radius, 0.031, 1e-12);
+}
+
+TEST_F(MainWindowTest, APresetFillsTheTissueWithItsSourceAsTooltip) {
+  auto w = open_window();
+  auto* box = w->findChild<QComboBox*>("presetBox");
+  ASSERT_NE(box, nullptr);
+  const auto& presets = tissue::presets();
+  ASSERT_FALSE(presets.empty());
+  ASSERT_EQ(box->count(), static_cast<int>(presets.size()) + 1) << "Custom and every preset";
+  for (std::size_t k = 0; k < presets.size(); ++k)
+    EXPECT_EQ(box->itemData(static_cast<int>(k) + 1, Qt::ToolTipRole).toString().toStdString(),
+              presets[k].tissue.source)
+        << presets[k].key;
+  const tissue::Preset& last = presets.back();
+  box->setCurrentIndex(box->count() - 1);
+  EXPECT_NEAR(w->findChild<QDoubleSpinBox*>("youngsModulus")->value(), last.tissue.youngs_modulus * 1e-3, 0.005);
+  EXPECT_EQ(w->workbench().material().tissue.youngs_modulus,
+            w->findChild<QDoubleSpinBox*>("youngsModulus")->value() * 1e3);
+  // Editing a value makes the tissue a custom one.
+  w->findChild<QDoubleSpinBox*>("poisson")->setValue(0.3);
+  EXPECT_EQ(box->currentIndex(), 0);
+  EXPECT_EQ(w->workbench().material().tissue.poisson, 0.3);
+  // The advanced linear model in N/m is still there, off by default.
+  auto* linear = w->findChild<QGroupBox*>("linearModel");
+  ASSERT_NE(linear, nullptr);
+  linear->setChecked(true);
+  w->findChild<QDoubleSpinBox*>("stiffness")->setValue(777);
+  EXPECT_EQ(w->workbench().material().law, MaterialLaw::Linear);
+  ASSERT_TRUE(wait_until([&] { return w->workbench().settled(); }));
+  EXPECT_EQ(w->workbench().loop()->surface().material(0).stiffness, 777);
+  EXPECT_EQ(w->workbench().loop()->surface().material(0).model, deform::LocalModelKind::Linear);
+  linear->setChecked(false);
+  EXPECT_EQ(w->workbench().material().law, MaterialLaw::Hertz);
+}
+
+// ---------------------------------------------------------------------------
+// Scenarios.
+
+std::filesystem::path shipped(const std::string& name) { return palpa::test::project_data_dir() / "scenarios" / name; }
+
+// A copy of a shipped scenario, changed by `edit`, in `dir` (the organ by its absolute path).
+std::filesystem::path scenario_copy(const std::string& name, const std::filesystem::path& dir,
+                                    const std::function<void(scenario::Scenario&)>& edit) {
+  scenario::Scenario s = scenario::load_scenario(shipped(name));
+  s.organ.path = s.organ.resolved.string();
+  edit(s);
+  const auto file = dir / name;
+  scenario::save_scenario(s, file);
+  return file;
+}
+
+TEST_F(MainWindowTest, OpensAScenarioWithItsTaskTitleAndTissue) {
+  auto w = open_window();
+  const auto file = shipped("liver_tumour.json");
+  const QString path = QString::fromStdString(file.string());
+  ASSERT_TRUE(w->open_file(path)) << w->error_text().toStdString();
+  EXPECT_TRUE(w->error_text().isEmpty());
+  ASSERT_TRUE(w->workbench().has_scenario());
+  const scenario::Scenario& s = w->workbench().scenario()->scenario;
+  EXPECT_EQ(w->windowTitle(), QString("Palpa - %1 (liver_tumour.json)").arg(QString::fromStdString(s.title)));
+  // The task is shown.
+  EXPECT_TRUE(w->findChild<QDockWidget*>("taskDock")->isVisible());
+  EXPECT_TRUE(w->task_text().contains(QString::fromStdString(s.task.instructions).toHtmlEscaped()))
+      << w->task_text().toStdString();
+  // The panel shows the base tissue in kPa and says what an edit would do.
+  EXPECT_NEAR(w->findChild<QDoubleSpinBox*>("youngsModulus")->value(),
+              s.tissues[w->workbench().scenario()->base].youngs_modulus * 1e-3, 0.005);
+  auto* note = w->findChild<QLabel*>("scenarioMaterialNote");
+  EXPECT_TRUE(note->isVisible());
+  EXPECT_TRUE(note->text().contains("replaces the map with one tissue for the whole organ")) << note->text().toStdString();
+  // It runs: the loop on the scenario's model, frames drawn.
+  ASSERT_NE(w->workbench().loop(), nullptr);
+  EXPECT_EQ(w->workbench().loop()->model()->tissue_map, w->workbench().scenario()->materials);
+  EXPECT_TRUE(wait_until([&] { return w->workbench().statistics().ticks > 10 && w->frame_rate() > 0; }));
+  // Recent files hold scenarios too.
+  EXPECT_EQ(w->recent_files().value(0), QFileInfo(path).absoluteFilePath());
+  // A plain organ again: no task, the title names the organ.
+  w->open_default_organ();
+  EXPECT_FALSE(w->workbench().has_scenario());
+  EXPECT_FALSE(w->findChild<QDockWidget*>("taskDock")->isVisible());
+  EXPECT_FALSE(note->isVisible());
+  EXPECT_EQ(w->windowTitle(), "Palpa - " + QString::fromStdString(w->workbench().organ().name));
+}
+
+TEST_F(MainWindowTest, ABadScenarioShowsAnErrorNamingTheFileAndKeepsTheScene) {
+  auto w = open_window();
+  ASSERT_TRUE(w->open_file(QString::fromStdString(shipped("breast_two_nodules.json").string())));
+  const auto* loop_before = w->workbench().loop();
+  const auto mesh_before = w->workbench().organ().mesh;
+  const QString title_before = w->windowTitle();
+  const QString task_before = w->task_text();
+  const auto dir = palpa::test::temp_dir("gui_bad_scenario");
+  const auto bad = dir / "typo.json";
+  {
+    std::string text = scenario::to_json_text(scenario::load_scenario(shipped("liver_tumour.json")));
+    text.replace(text.find("\"title\""), 7, "\"titel\"");
+    std::ofstream(bad) << text;
+  }
+  EXPECT_FALSE(w->open_file(QString::fromStdString(bad.string())));
+  EXPECT_TRUE(w->error_text().startsWith("Could not open typo.json: " + QString::fromStdString(bad.string())))
+      << w->error_text().toStdString();
+  EXPECT_TRUE(w->error_text().contains("/titel")) << w->error_text().toStdString();
+  EXPECT_TRUE(w->findChild<QLabel*>("errorBanner")->isVisible());
+  EXPECT_EQ(w->workbench().loop(), loop_before);
+  EXPECT_EQ(w->workbench().organ().mesh, mesh_before);
+  EXPECT_EQ(w->windowTitle(), title_before);
+  EXPECT_EQ(w->task_text(), task_before);
+  EXPECT_FALSE(w->recent_files().contains(QString::fromStdString(bad.string())));
+  const auto ticks = w->workbench().statistics().ticks;
+  EXPECT_TRUE(wait_until([&] { return w->workbench().statistics().ticks > ticks; }));
+}
+
+TEST_F(MainWindowTest, EditingAScenarioTissueReplacesItsMapAndUndoRestoresIt) {
+  auto w = open_window();
+  ASSERT_TRUE(w->open_file(QString::fromStdString(shipped("breast_two_nodules.json").string())));
+  auto* undo = w->findChild<QAction*>("undoMaterialEdit");
+  ASSERT_NE(undo, nullptr);
+  EXPECT_FALSE(undo->isEnabled());
+  w->findChild<QDoubleSpinBox*>("youngsModulus")->setValue(20);
+  EXPECT_FALSE(w->workbench().tissue_map_in_force());
+  EXPECT_TRUE(undo->isEnabled());
+  EXPECT_TRUE(w->findChild<QPushButton*>("restoreTissueMap")->isVisible());
+  EXPECT_TRUE(w->findChild<QLabel*>("scenarioMaterialNote")->text().contains("replaced"));
+  undo->trigger();
+  EXPECT_TRUE(w->workbench().tissue_map_in_force());
+  EXPECT_FALSE(undo->isEnabled());
+  const auto& sc = *w->workbench().scenario();
+  EXPECT_NEAR(w->findChild<QDoubleSpinBox*>("youngsModulus")->value(), sc.scenario.tissues[sc.base].youngs_modulus * 1e-3,
+              0.005);
+  ASSERT_TRUE(wait_until([&] { return w->workbench().settled(); }));
+  const deform::MaterialMap& map = *sc.materials;
+  for (Index i = 0; i < map.tissue_of.size(); i += 101) {
+    const deform::Material& m = map.tissues[map.tissue_of[i]];
+    ASSERT_EQ(w->workbench().loop()->surface().vertex_material(i), map.scale.empty() ? m : deform::scaled(m, map.scale[i]));
+  }
+}
+
+TEST_F(MainWindowTest, TheDropHandlerTakesScenariosAndMeshes) {
+  auto w = open_window();
+  auto mime = [](const std::filesystem::path& p) {
+    auto data = std::make_unique<QMimeData>();
+    data->setUrls({QUrl::fromLocalFile(QString::fromStdString(p.string()))});
+    return data;
+  };
+  const auto dir = palpa::test::temp_dir("gui_drop_kinds");
+  const auto ply = dir / "ball.ply";
+  mesh::save_mesh(mesh::make_sphere(600, 0.04), ply);
+  const auto json = shipped("liver_tumour.json");
+  EXPECT_EQ(MainWindow::droppable_file(mime(json).get()).toStdString(), json.string());
+  EXPECT_EQ(MainWindow::droppable_file(mime(ply).get()).toStdString(), ply.string());
+  EXPECT_TRUE(MainWindow::droppable_file(mime(dir / "notes.txt").get()).isEmpty());
+  EXPECT_TRUE(MainWindow::droppable_file(nullptr).isEmpty());
+  EXPECT_TRUE(w->drop_file(mime(json).get())) << w->error_text().toStdString();
+  EXPECT_TRUE(w->workbench().has_scenario());
+  EXPECT_TRUE(w->drop_file(mime(ply).get())) << w->error_text().toStdString();
+  EXPECT_FALSE(w->workbench().has_scenario());
+  EXPECT_EQ(w->workbench().organ().name, "ball.ply");
+  // A drag of a scenario is accepted by the window.
+  auto data = mime(json);
+  QDragEnterEvent enter(QPoint(50, 50), Qt::CopyAction, data.get(), Qt::LeftButton, Qt::NoModifier);
+  QApplication::sendEvent(w.get(), &enter);
+  EXPECT_TRUE(enter.isAccepted());
+}
+
+// Frames until the drawn surface stops changing (every vertex bit for bit
+// the same two frames in a row, at rest or held under a press) and the
+// picture with it.
+QImage settled_frame(MainWindow& w) {
+  std::vector<Vec3> last_drawn;
+  QImage last;
+  for (int k = 0; k < 200; ++k) {
+    QTest::qWait(50);
+    w.advance();
+    std::vector<Vec3> drawn;
+    for (Index i = 0; i < w.surface_view()->mesh().vertex_count(); ++i) drawn.push_back(w.surface_view()->drawn_position(i));
+    const QImage now = w.viewport()->grabFramebuffer();
+    if (drawn == last_drawn && now == last) return now;
+    last_drawn = std::move(drawn);
+    last = now;
+  }
+  ADD_FAILURE() << "the surface did not come to rest";
+  return last;
+}
+
+TEST_F(MainWindowTest, HiddenLesionsAreNeverDrawnAndShownOnesAre) {
+  auto w = open_window();
+  const auto dir = palpa::test::temp_dir("gui_lesions");
+  const auto none_dir = dir / "none", shown_dir = dir / "shown";
+  std::filesystem::create_directories(none_dir);
+  std::filesystem::create_directories(shown_dir);
+  const auto with_hidden = scenario_copy("breast_two_nodules.json", dir, [](scenario::Scenario&) {});
+  const auto without = scenario_copy("breast_two_nodules.json", none_dir, [](scenario::Scenario& s) { s.lesions.clear(); });
+  const auto shown = scenario_copy("breast_two_nodules.json", shown_dir, [](scenario::Scenario& s) {
+    for (auto& l : s.lesions) l.lesion.visibility = tissue::Visibility::Shown;
+  });
+  // At rest, and under the same press over nodule A (the force differs,
+  // that is how the lesion is felt, so a scenario's picture shows no force
+  // arrow unless revealed).
+  const auto press = [&] {
+    const auto& mesh = *w->workbench().organ().mesh;
+    const Vec3 centre = w->workbench().scenario()->scenario.lesions.empty()
+                            ? Vec3(0.025, 0.020, 0.053)
+                            : w->workbench().scenario()->scenario.lesions[0].surface_point;
+    Index v = 0;
+    for (Index i = 0; i < mesh.vertex_count(); ++i)
+      if ((mesh.positions[i] - centre).norm() < (mesh.positions[v] - centre).norm()) v = i;
+    w->workbench().place(w->workbench().selected_id(), mesh.positions[v], mesh.normals[v], 0.005);
+    EXPECT_TRUE(wait_until([&] { return w->surface_view()->max_displacement() > 1e-3; }));
+  };
+  ASSERT_TRUE(w->open_file(QString::fromStdString(with_hidden.string()))) << w->error_text().toStdString();
+  ASSERT_EQ(w->workbench().field()->lesion_count, 2u);
+  EXPECT_EQ(w->lesions_drawn(), 0u);
+  const QImage hidden_rest = settled_frame(*w);
+  press();
+  const QImage hidden_pressed = settled_frame(*w);
+  ASSERT_TRUE(w->open_file(QString::fromStdString(without.string()))) << w->error_text().toStdString();
+  ASSERT_EQ(w->workbench().field()->lesion_count, 0u);
+  const QImage bare_rest = settled_frame(*w);
+  press();
+  const QImage bare_pressed = settled_frame(*w);
+  EXPECT_TRUE(hidden_rest == bare_rest) << "a hidden lesion changed the picture at rest";
+  EXPECT_TRUE(hidden_pressed == bare_pressed) << "a hidden lesion changed the picture under a press";
+  EXPECT_FALSE(hidden_pressed == hidden_rest) << "the press is not drawn";
+  // Shown lesions are drawn (translucent, over the organ).
+  ASSERT_TRUE(w->open_file(QString::fromStdString(shown.string()))) << w->error_text().toStdString();
+  EXPECT_EQ(w->lesions_drawn(), 2u);
+  const QImage shown_rest = settled_frame(*w);
+  EXPECT_FALSE(shown_rest == bare_rest) << "a shown lesion is not drawn";
+  // The debriefing reveals hidden ones.
+  ASSERT_TRUE(w->open_file(QString::fromStdString(with_hidden.string())));
+  EXPECT_EQ(w->lesions_drawn(), 0u);
+  w->findChild<QAction*>("revealLesions")->setChecked(true);
+  EXPECT_EQ(w->lesions_drawn(), 2u);
+  press();
+  const QImage revealed_pressed = settled_frame(*w);
+  EXPECT_FALSE(revealed_pressed == hidden_pressed) << "revealed: the lesions and the force arrow are drawn";
+  w->findChild<QAction*>("revealLesions")->setChecked(false);
+  EXPECT_EQ(w->lesions_drawn(), 0u);
+  EXPECT_TRUE(settled_frame(*w) == hidden_pressed) << "hidden again: the same picture as before";
+  w->findChild<QAction*>("showForceArrows")->setChecked(true);
+  if (const char* dir = std::getenv("PALPA_TEST_SCREENSHOTS"); dir && *dir)
+    w->grab().save(QString(dir) + "/workbench_shown_lesions.png");
+}
+
+TEST_F(MainWindowTest, ABreathingOrganIsDrawnWhereItIsAndPicksStayOnIt) {
+  auto w = open_window();
+  ASSERT_TRUE(w->open_file(QString::fromStdString(shipped("abdomen_aorta.json").string())));
+  const auto field = w->workbench().field();
+  ASSERT_TRUE(field && field->breathing.enabled);
+  // The organ actor carries the breathing transform of the frame's time.
+  double lo = 1e9, hi = -1e9;
+  for (int k = 0; k < 40; ++k) {
+    QTest::qWait(40);
+    w->advance();
+    vtkMatrix4x4* m = w->surface_view()->actor()->GetUserMatrix();
+    ASSERT_NE(m, nullptr);
+    const Eigen::Matrix4d expected = field->organ_to_world(w->workbench().loop_time());
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) ASSERT_NEAR(m->GetElement(r, c), expected(r, c), 1e-12);
+    lo = std::min(lo, m->GetElement(2, 3));
+    hi = std::max(hi, m->GetElement(2, 3));
+  }
+  EXPECT_GT(hi - lo, 1e-4) << "the organ did not move with the breathing";
+  // A press on the drawn organ anchors the probe on the organ (organ frame).
+  const auto p = point_on_organ(*w);
+  ASSERT_TRUE(p.has_value());
+  auto* vp = w->viewport();
+  QTest::mousePress(vp, Qt::LeftButton, Qt::NoModifier, *p);
+  drag(vp, *p, *p + QPoint(0, 60), 4);
+  const Probe* probe = w->workbench().selected_probe();
+  ASSERT_TRUE(probe && probe->placed);
+  const auto& mesh = *w->workbench().organ().mesh;
+  double nearest = 1e9;
+  for (const Vec3& x : mesh.positions) nearest = std::min(nearest, (x - probe->anchor).norm());
+  EXPECT_LT(nearest, 0.01) << "the anchor is not on the organ";
+  EXPECT_TRUE(wait_until([&] { return w->workbench().selected_probe()->output.in_contact; }));
+  QTest::mouseRelease(vp, Qt::LeftButton, Qt::NoModifier, *p + QPoint(0, 60));
 }
 
 TEST_F(MainWindowTest, SeveralProbesPressAtOnce) {

@@ -3,13 +3,18 @@
 // without sliding); probes are devices (mouse probes fed by the host, a
 // scripted device replaying a file), a device that cannot start changes
 // nothing; depth limits, material changes and reset behave as the window
-// relies on. The loop runs on its own threads, so the tests wait for
-// conditions with a timeout (never for wall-time figures).
+// relies on. Scenarios: each shipped one runs on a loop whose model holds
+// its field and tissue map, a bad one changes nothing and names its file, a
+// Hertz material reaches the loop as tissue::hertz_material gives it, a
+// mouse probe on a breathing organ is fed tips that move with the phase, and
+// a material edit of a scenario is undone. The loop runs on its own threads,
+// so the tests wait for conditions with a timeout (never for wall-time figures).
 
 #include "app/gui/workbench.h"
 
 #include "common/test_support.h"
 #include "mesh/generate.h"
+#include "scenario/scenario.h"
 
 #include <chrono>
 #include <fstream>
@@ -52,6 +57,7 @@ double max_h(const std::vector<float>& stream) {
 TEST(Workbench, AHeldProbeFeelsStiffnessTimesDepth) {
   Workbench wb;
   MaterialSettings mat;
+  mat.law = MaterialLaw::Linear;  // the advanced N/m model
   mat.stiffness = 300;
   wb.set_material(mat);
   wb.set_organ(sphere_organ());
@@ -108,6 +114,7 @@ TEST(Workbench, DepthIsClampedToTheShapeRadiusAndMaterialAppliesAtOnce) {
   wb.set_depth(id, -1.0);
   EXPECT_EQ(wb.probe(id)->depth, 0.0);
   MaterialSettings m;
+  m.law = MaterialLaw::Linear;  // the advanced N/m model
   m.stiffness = 1234;
   m.model = deform::LocalModelKind::Exponential;
   const haptics::HapticLoop* before = wb.loop();
@@ -200,6 +207,218 @@ TEST(Workbench, ADeviceThatCannotStartChangesNothing) {
   EXPECT_EQ(wb.selected_id(), id);
   EXPECT_EQ(wb.loop(), loop) << "the loop was not rebuilt";
   EXPECT_TRUE(wb.loop()->running());
+}
+
+
+// ---------------------------------------------------------------------------
+// Scenarios.
+
+std::filesystem::path shipped(const std::string& name) { return palpa::test::project_data_dir() / "scenarios" / name; }
+
+// The material of vertex i that a tissue map gives.
+deform::Material map_material(const deform::MaterialMap& map, Index i) {
+  const deform::Material& m = map.tissues.at(map.tissue_of.at(i));
+  return map.scale.empty() ? m : deform::scaled(m, map.scale[i]);
+}
+
+TEST(WorkbenchScenario, EachShippedScenarioRunsOnALoopWithItsFieldAndTissueMap) {
+  for (const char* name : {"breast_two_nodules.json", "liver_tumour.json", "abdomen_aorta.json"}) {
+    SCOPED_TRACE(name);
+    Workbench wb;
+    wb.add_probe();
+    ASSERT_NO_THROW(wb.open_scenario(shipped(name)));
+    ASSERT_TRUE(wb.has_scenario());
+    const scenario::Resolved& sc = *wb.scenario();
+    ASSERT_NE(wb.loop(), nullptr);
+    EXPECT_TRUE(wb.loop()->running());
+    EXPECT_EQ(wb.organ().mesh, sc.organ.mesh);
+    // The loop runs on the scenario's model: its field and its tissue map.
+    const haptics::SessionModel* model = wb.loop()->model();
+    ASSERT_NE(model, nullptr);
+    ASSERT_NE(model->field, nullptr);
+    ASSERT_NE(model->tissue_map, nullptr);
+    EXPECT_EQ(model->field, sc.field);
+    EXPECT_EQ(model->tissue_map, sc.materials);
+    EXPECT_EQ(model->mesh, sc.organ.mesh);
+    EXPECT_EQ(model->field->lesion_count, sc.lesions.size());
+    EXPECT_TRUE(wb.tissue_map_in_force());
+    // The probe's shape function and the base tissue in the settings.
+    EXPECT_EQ(model->config.shape.kind, sc.scenario.probe.shape.kind);
+    EXPECT_EQ(model->config.shape.radius, sc.scenario.probe.shape.radius);
+    EXPECT_EQ(wb.material().law, MaterialLaw::Hertz);
+    EXPECT_EQ(wb.material().tissue, sc.scenario.tissues[sc.base]);
+    EXPECT_EQ(wb.material().tip_radius, sc.scenario.probe.tip_radius);
+    EXPECT_EQ(wb.material().radius, sc.scenario.probe.shape.radius);
+    // The map is what the vertices have (one vertex per 97 checked).
+    const deform::MaterialArrays now = wb.materials();
+    for (Index i = 0; i < sc.organ.mesh->vertex_count(); i += 97)
+      ASSERT_EQ(now.at(i), map_material(*sc.materials, i)) << "vertex " << i;
+    EXPECT_TRUE(wait_for(wb, [&] { return wb.view().tick > 10; }));
+  }
+}
+
+TEST(WorkbenchScenario, TheShippedScenariosHoldWhatTheyPromise) {
+  Workbench wb;
+  wb.open_scenario(shipped("breast_two_nodules.json"));
+  EXPECT_EQ(wb.field()->lesion_count, 2u);
+  for (const auto& l : wb.scenario()->lesions) EXPECT_EQ(l.visibility, tissue::Visibility::Hidden) << l.name;
+  EXPECT_FALSE(wb.field()->breathing.enabled);
+  wb.open_scenario(shipped("abdomen_aorta.json"));
+  EXPECT_TRUE(wb.field()->breathing.enabled);
+  EXPECT_EQ(wb.field()->pulse_count, 1u);
+}
+
+TEST(WorkbenchScenario, ABadScenarioChangesNothingAndNamesTheFile) {
+  const auto dir = palpa::test::temp_dir("workbench_bad_scenario");
+  Workbench wb;
+  const int id = wb.add_probe();
+  wb.open_scenario(shipped("liver_tumour.json"));
+  wb.place(id, wb.organ().mesh->positions[0], wb.organ().mesh->normals[0], 0.002);
+  const haptics::HapticLoop* loop = wb.loop();
+  const auto mesh_before = wb.organ().mesh;
+  const scenario::Resolved* sc_before = wb.scenario();
+  const MaterialSettings material_before = wb.material();
+
+  // A validation fault: the file and the JSON pointer in the message.
+  const auto bad = dir / "bad_radius.json";
+  {
+    scenario::Scenario s = scenario::load_scenario(shipped("liver_tumour.json"));
+    std::string text = scenario::to_json_text(s);
+    const auto at = text.find("\"radius_mm\": ");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, std::string("\"radius_mm\": ").size(), "\"radius_mm\": -3, \"x\": ");
+    std::ofstream(bad) << text;
+  }
+  // An organ that does not exist: the scenario is named, not only the organ file.
+  const auto no_organ = dir / "no_organ.json";
+  {
+    scenario::Scenario s = scenario::load_scenario(shipped("liver_tumour.json"));
+    s.organ.path = "missing_organ.ply";
+    s.organ.sha256.clear();
+    std::ofstream(no_organ) << scenario::to_json_text(s);
+  }
+  // Not JSON at all, and a file that is not there.
+  const auto garbage = dir / "garbage.json";
+  { std::ofstream(garbage) << "{ this is not json"; }
+  const auto missing = dir / "missing.json";
+
+  for (const auto& file : {bad, no_organ, garbage, missing}) {
+    SCOPED_TRACE(file.string());
+    try {
+      wb.open_scenario(file);
+      ADD_FAILURE() << "no error";
+    } catch (const std::exception& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(file.string(), 0), 0u) << e.what();
+    }
+    // Same loop object, organ, scenario, settings and probe.
+    EXPECT_EQ(wb.loop(), loop);
+    EXPECT_TRUE(wb.loop()->running());
+    EXPECT_EQ(wb.organ().mesh, mesh_before);
+    EXPECT_EQ(wb.scenario(), sc_before);
+    EXPECT_EQ(wb.material().tissue, material_before.tissue);
+    EXPECT_TRUE(wb.probe(id)->placed);
+    EXPECT_EQ(wb.probe(id)->depth, 0.002);
+  }
+  const auto ticks = wb.statistics().ticks;
+  EXPECT_TRUE(wait_for(wb, [&] { return wb.statistics().ticks > ticks; }));
+}
+
+TEST(WorkbenchScenario, AHertzMaterialReachesTheLoopAsTissueGivesIt) {
+  Workbench wb;
+  wb.set_organ(sphere_organ());
+  MaterialSettings m;
+  m.law = MaterialLaw::Hertz;
+  m.tissue.youngs_modulus = 12.5e3;
+  m.tissue.poisson = 0.45;
+  m.tissue.damping_ratio = 0.8;
+  m.tissue.relaxation_time = 0.5;
+  m.tissue.relaxation_fraction = 0.2;
+  m.tissue.stiffening = 20;
+  m.tip_radius = 0.006;
+  wb.set_material(m);
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.settled(); }));
+  const deform::Material expected = tissue::hertz_material(m.tissue, 0.006, m.mass);
+  EXPECT_EQ(expected.model, deform::LocalModelKind::Hertz);
+  EXPECT_EQ(wb.loop()->surface().material(0), expected);
+  EXPECT_EQ(wb.loop()->surface().material(Index(wb.organ().mesh->vertex_count() - 1)), expected);
+  // A bad tissue is refused and changes nothing.
+  MaterialSettings bad = m;
+  bad.tissue.poisson = 0.5;
+  EXPECT_THROW(wb.set_material(bad), std::invalid_argument);
+  EXPECT_EQ(wb.material().tissue, m.tissue);
+}
+
+TEST(WorkbenchScenario, AMaterialEditReplacesTheTissueMapAndRestoreUndoesIt) {
+  Workbench wb;
+  wb.open_scenario(shipped("breast_two_nodules.json"));
+  const scenario::Resolved& sc = *wb.scenario();
+  const haptics::HapticLoop* loop = wb.loop();
+  MaterialSettings m = wb.material();
+  m.tissue.youngs_modulus = 30e3;
+  wb.set_material(m);
+  EXPECT_FALSE(wb.tissue_map_in_force());
+  EXPECT_EQ(wb.loop(), loop) << "an edit, not a new loop";
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.settled(); }));
+  const deform::Material uniform = tissue::hertz_material(m.tissue, m.tip_radius, m.mass);
+  EXPECT_EQ(wb.loop()->surface().vertex_material(0), uniform);
+  EXPECT_EQ(wb.materials().at(0), uniform);
+  // Undo: the scenario's map again, vertex by vertex.
+  wb.restore_tissue_map();
+  EXPECT_TRUE(wb.tissue_map_in_force());
+  EXPECT_EQ(wb.material().tissue, sc.scenario.tissues[sc.base]);
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.settled(); }));
+  for (Index i = 0; i < sc.organ.mesh->vertex_count(); i += 53)
+    ASSERT_EQ(wb.loop()->surface().vertex_material(i), map_material(*sc.materials, i)) << "vertex " << i;
+}
+
+TEST(WorkbenchScenario, AMouseProbeOnABreathingOrganIsFedTipsThatMoveWithThePhase) {
+  Workbench wb;
+  const int id = wb.add_probe();
+  wb.open_scenario(shipped("abdomen_aorta.json"));
+  const auto field = wb.field();
+  ASSERT_TRUE(field && field->breathing.enabled);
+  // The vertex whose normal is most nearly +z (the belly), pressed 4 mm.
+  const auto& mesh = *wb.organ().mesh;
+  Index top = 0;
+  for (Index i = 0; i < mesh.vertex_count(); ++i)
+    if (mesh.normals[i].z() > mesh.normals[top].z() + 1e-12 ||
+        (mesh.normals[i].z() >= mesh.normals[top].z() - 1e-12 && mesh.positions[i].z() > mesh.positions[top].z()))
+      top = i;
+  const Vec3 anchor = mesh.positions[top], normal = mesh.normals[top].normalized();
+  const double depth = 0.004;
+  wb.place(id, anchor, normal, depth);
+  const Vec3 organ_tip = anchor - depth * normal;
+  // Over about 1.5 s of breathing (14 per minute) the tips fed follow the organ.
+  double lo_b = 1, hi_b = 0, lo_z = 1e9, hi_z = -1e9, lo_loop = 1e9, hi_loop = -1e9;
+  int samples = 0, in_contact = 0;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(1500);
+  while (std::chrono::steady_clock::now() < end) {
+    wb.update();
+    const Probe& p = *wb.probe(id);
+    const double t = wb.loop_time();
+    // What is fed is the organ point where breathing has it at the loop's time.
+    ASSERT_LT((p.tip - field->to_world(organ_tip, t)).norm(), 1e-12) << "t " << t;
+    const double b = field->breathing_value(t);
+    lo_b = std::min(lo_b, b), hi_b = std::max(hi_b, b);
+    lo_z = std::min(lo_z, p.tip.z()), hi_z = std::max(hi_z, p.tip.z());
+    // The loop reads it: its world position of the probe moves too.
+    const haptics::LoopView v = wb.view();
+    if (p.slot < v.probe_count && v.tick > 0) {
+      const double z = haptics::to_vec(v.probes[p.slot].world).z();
+      lo_loop = std::min(lo_loop, z), hi_loop = std::max(hi_loop, z);
+      in_contact += p.output.in_contact;
+    }
+    ++samples;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_GT(samples, 10);
+  // The breathing translation is along z: the tips moved by b's range times it.
+  const double expected = (hi_b - lo_b) * field->breathing.translation.z();
+  ASSERT_GT(expected, 1e-3) << "the phase hardly moved in 1.5 s";
+  EXPECT_NEAR(hi_z - lo_z, expected, 1e-9);
+  EXPECT_GT(hi_loop - lo_loop, 0.8 * expected) << "the loop did not see the probe move with the organ";
+  // Carried with the organ, the pressed probe stays in contact.
+  EXPECT_GT(in_contact, samples / 2);
 }
 
 }  // namespace

@@ -371,3 +371,69 @@ TEST(HapticTick, NonFiniteProbeGivesNoForce) {
 
 }  // namespace
 }  // namespace palpa::haptics
+
+#include "haptics/session.h"
+#include "tissue/field.h"
+#include "tissue/tissue.h"
+
+namespace palpa::haptics {
+namespace {
+
+TEST(HapticTick, TheTissueFieldAllocatesNothingOnTheTickOrTheStep) {
+  // Lesions, a pulse, breathing and a guarding region: after a warm-up,
+  // neither the tick nor the deformation step allocates.
+  auto mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(61, 61, 0.001));
+  tissue::Lesion les;
+  les.centre = Vec3(0, 0, -0.01);
+  tissue::Pulse pulse;
+  pulse.name = "vessel";
+  pulse.path = {Vec3(-0.03, 0, -0.004), Vec3(0.03, 0, -0.004)};
+  tissue::Breathing breathing;
+  breathing.enabled = true;
+  breathing.translation = Vec3(0, 0, 0.002);
+  tissue::DynamicRegion guard;
+  guard.region = "all";
+  guard.guarding.enabled = true;
+  guard.guarding.threshold = 0.01;
+  guard.keyframes = {{0.1, 1.5, 0.1}};
+  auto field = std::make_shared<tissue::TissueField>(tissue::make_field(
+      *mesh, 0.008, {les}, {pulse}, breathing, {guard}, {std::vector<float>(mesh->vertex_count(), 1.0f)}));
+  CoreConfig config;
+  config.deform_rate_hz = 500;
+  tissue::Tissue t;
+  t.name = "soft";
+  const deform::Material m = tissue::hertz_material(t, 0.008);
+  const auto model = SessionModel::make(mesh, {}, config, field);
+  ProbeSetup probe;
+  probe.name = "p";
+  probe.spec.position_dof = 3;
+  probe.safety.max_jump = 1e9;
+  Session s(model, deform::MaterialArrays::uniform(mesh->vertex_count(), m), {probe, probe});
+  std::vector<ProbeTickInput> in(2);
+  std::vector<ProbeTickResult> out(2);
+  auto run = [&](int from, int to) {
+    for (int k = from; k < to; ++k) {
+      const double t = k * 1e-3;
+      for (int j = 0; j < 2; ++j) {
+        auto& smp = in[j].sample;
+        smp.orientation[0] = 1;
+        smp.position[0] = 0.005 * std::sin(t + j);
+        smp.position[1] = 0.004 * j;
+        smp.position[2] = -0.003;
+        smp.status = PALPA_STATUS_VALID;
+        smp.sequence = k + 1;
+        smp.time = t;
+      }
+      s.step(t, in, out);
+    }
+  };
+  run(0, 500);
+  ASSERT_TRUE(out[0].in_contact);
+  const long before = g_allocations.load();
+  run(500, 1500);
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_TRUE(out[0].in_contact);
+}
+
+}  // namespace
+}  // namespace palpa::haptics

@@ -1,10 +1,15 @@
-// Organ loading: unit guessing, the default organ, real organs.
+// Organ loading: unit guessing, the default organ, the bundled scenario
+// organs (breast, abdomen), real organs.
 
 #include "mesh/organ.h"
 
 #include "common/test_support.h"
+#include "mesh/generate.h"
 
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
+#include <string>
 
 namespace palpa::mesh {
 namespace {
@@ -109,6 +114,37 @@ TEST(Organ, OpenAndNonManifoldSurfacesAreNamedInTheNote) {
             "not a closed surface: 1 open boundary (6 boundary edges, the first at (0.0, 50.0, 0.0) mm) and 1 "
             "non-manifold edge (at (50.0, 0.0, 0.0) mm, shared by more than two triangles)");
 }
+
+// The bundled scenario organs load in metres, closed and outward as stored,
+// and are what their generator makes now (to float32 precision): a changed
+// shape without a regenerated file fails here (data/README.md has the commands).
+void expect_bundled_file_matches(const std::string& file, SurfaceMesh (*generate)(std::size_t)) {
+  const std::filesystem::path path = palpa::test::project_data_dir() / file;
+  ASSERT_TRUE(std::filesystem::exists(path)) << path << " is missing (see data/README.md)";
+  EXPECT_LT(std::filesystem::file_size(path), 1'000'000u);
+  const Organ o = load_organ(path, MeshUnit::Metre);
+  ASSERT_TRUE(o.mesh);
+  EXPECT_FALSE(o.unit_guessed);
+  EXPECT_EQ(o.unit_m, 1.0);
+  EXPECT_TRUE(o.facts.closed());
+  EXPECT_TRUE(o.facts.consistently_oriented);
+  EXPECT_EQ(o.facts.components, 1u);
+  EXPECT_EQ(o.facts.euler_characteristic, 2);
+  EXPECT_GT(o.facts.signed_volume, 0.0);
+  const SurfaceMesh fresh = generate(20'000);
+  ASSERT_EQ(o.mesh->vertex_count(), fresh.vertex_count());
+  ASSERT_EQ(o.mesh->triangle_count(), fresh.triangle_count());
+  double worst = 0;
+  for (std::size_t i = 0; i < fresh.vertex_count(); ++i)
+    worst = std::max(worst, (o.mesh->positions[i] - fresh.positions[i]).cwiseAbs().maxCoeff());
+  EXPECT_LT(worst, 1e-7) << "m; regenerate " << path;  // float32 of coordinates below 0.16 m: < 1e-8
+  EXPECT_TRUE(o.mesh->triangles == fresh.triangles);
+  EXPECT_NEAR(o.facts.signed_volume / analyse(fresh).signed_volume, 1.0, 1e-5);
+}
+
+TEST(BundledOrgans, BreastFileMatchesAFreshGeneration) { expect_bundled_file_matches("breast.ply", make_breast); }
+
+TEST(BundledOrgans, AbdomenFileMatchesAFreshGeneration) { expect_bundled_file_matches("abdomen.ply", make_abdomen); }
 
 }  // namespace
 }  // namespace palpa::mesh
