@@ -206,8 +206,13 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
       // The view reads the loop's mailbox directly (the first read holds
       // the whole stream, uploaded once).
       core::SurfaceMailbox& box = loop.surface_changes();
-      surface_view.update(box.stream(), box.begin_read());
-      box.end_read();
+      std::vector<float> pulled(4 * box.vertex_count(), 0.0f);
+      {
+        const auto all = box.begin_read();
+        box.read_into(pulled, all);
+        surface_view.update(pulled, all);
+        box.end_read();
+      }
       render_ready.store(true);
       auto next = std::chrono::steady_clock::now();
       while (rendering.load()) {
@@ -215,7 +220,8 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
         std::this_thread::sleep_until(next);
         const auto f0 = std::chrono::steady_clock::now();
         const auto ranges = box.begin_read();
-        if (!ranges.empty()) surface_view.update(box.stream(), ranges);
+        box.read_into(pulled, ranges);
+        if (!ranges.empty()) surface_view.update(pulled, ranges);
         box.end_read();
         for (const auto& r : ranges) uploaded += 16ull * (r.end - r.begin);
         view_scene.window().render();

@@ -75,15 +75,21 @@ struct Options {
   fs::path shared_dir = PALPA_BENCH_SHARED_ORGANS_DIR;
   std::size_t ticks = 0;  // timed ticks per run; 0 = mode default
   std::uint64_t seed = 20240601;
+  double organ_unit_m = 0;  // > 0: every organ file is in this unit (e.g. 1 for palpa-prep's output)
+  bool spheres = true;
   bool tissue_map_only = false;
 };
 
 void print_usage() {
   std::printf(
-      "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--ticks N] [--seed N] [--tissue-map]\n"
+      "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--organ-unit U] [--no-spheres]\n"
+      "                   [--ticks N] [--seed N] [--tissue-map]\n"
       "  --quick            reduced set (spheres 10k, 100k, 1M; fewer ticks; no brute force above 100k)\n"
       "  --json FILE        also write the records as a JSON array to FILE\n"
       "  --shared-data DIR  folder of shared organ meshes (default %s)\n"
+      "  --organ-unit U     metres per file unit of every organ (e.g. 1 for meshes palpa-prep wrote);\n"
+      "                     default: the SOURCES.md units (cm for sofa_liver-smooth.obj, else mm)\n"
+      "  --no-spheres       organs only\n"
       "  --ticks N          timed ticks per run (default 50000, quick 3000)\n"
       "  --seed N           trajectory seed (default 20240601)\n"
       "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n",
@@ -115,6 +121,14 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       std::string d;
       if (!value(d)) return std::string("--shared-data needs a folder");
       o.shared_dir = d;
+    } else if (a == "--organ-unit") {
+      std::string v;
+      if (!value(v)) return std::string("--organ-unit needs metres per file unit");
+      char* end = nullptr;
+      o.organ_unit_m = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !(o.organ_unit_m > 0)) return "--organ-unit: '" + v + "' is not a positive number";
+    } else if (a == "--no-spheres") {
+      o.spheres = false;
     } else if (a == "--ticks") {
       std::uint64_t n = 0;
       if (auto e = number("--ticks", n)) return e;
@@ -190,7 +204,7 @@ std::string lower(std::string s) {
 }
 
 // Lists the organ meshes of the shared folder (sorted), saying what is skipped.
-std::vector<MeshCase> organ_cases(const fs::path& dir) {
+std::vector<MeshCase> organ_cases(const fs::path& dir, double unit_override_m) {
   std::vector<MeshCase> cases;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
@@ -222,7 +236,7 @@ std::vector<MeshCase> organ_cases(const fs::path& dir) {
       c.name = f.stem().string();
       c.source = f.filename().string();
       c.file = f;
-      c.unit_m = organ_unit_m(f);
+      c.unit_m = unit_override_m > 0 ? unit_override_m : organ_unit_m(f);
       cases.push_back(c);
     } else if (ext != ".md" && ext != ".mtl" && ext != ".txt") {
       std::printf("shared organs: %s skipped (not a mesh format the loader reads)\n", f.filename().string().c_str());
@@ -843,14 +857,14 @@ int main(int argc, char** argv) {
   // The meshes: spheres first, then the shared organs (none with --tissue-map).
   std::vector<MeshCase> cases;
   if (!opt.tissue_map_only) {
-    for (std::size_t n : plan.spheres) {
+    for (std::size_t n : opt.spheres ? plan.spheres : std::vector<std::size_t>{}) {
       MeshCase c;
       c.name = sphere_name(n);
       c.source = "make_sphere";
       c.sphere_target = n;
       cases.push_back(c);
     }
-    for (auto& c : organ_cases(opt.shared_dir)) cases.push_back(c);
+    for (auto& c : organ_cases(opt.shared_dir, opt.organ_unit_m)) cases.push_back(c);
   }
 
   // Measure each mesh in turn (one mesh in memory at a time).

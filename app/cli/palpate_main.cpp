@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -48,51 +49,81 @@ void usage() {
   std::puts(
       "usage: palpa-palpate [options]\n"
       "  --mesh FILE          organ mesh (default: the bundled default organ)\n"
-      "  --unit METRES        length of one file unit in metres (1e-3 for mm; default 1)\n"
-      "  --organ-vertices N   generate the default organ with about N vertices instead\n"
-      "  --probes N           probes palpating at once, 1..8 (default 3)\n"
-      "  --seconds S          simulated time, s (default 2)\n"
-      "  --rate HZ            haptic rate, Hz (default 1000)\n"
-      "  --depth M            maximum indentation, m (default 0.008)\n"
-      "  --stiffness N_PER_M  vertex stiffness, N/m (default 200)\n"
-      "  --friction K         friction coefficient of eq. (4) (default 0.2)\n"
+      "  --unit METRES        length of one file unit in metres, 1e-06 .. 1 (1e-3 for mm; default 1)\n"
+      "  --organ-vertices N   generate the default organ with about N vertices instead, 100 .. 5000000\n"
+      "  --probes N           probes palpating at once, 1 .. 8 (default 3)\n"
+      "  --seconds S          simulated time, 0.001 .. 3600 s (default 2)\n"
+      "  --rate HZ            haptic rate, 100 .. 10000 Hz (default 1000); seconds x rate is\n"
+      "                       1 .. 10000000 ticks\n"
+      "  --depth M            maximum indentation, 0.0001 .. 0.05 m (default 0.008)\n"
+      "  --stiffness N_PER_M  vertex stiffness, 0.001 .. 1e+06 N/m (default 200)\n"
+      "  --friction K         friction coefficient of eq. (4), 0 .. 2 (default 0.2)\n"
       "  --record SESSION     record the session into a new session file (palpa-replay, palpa-assess)\n"
-      "  --scenario FILE ...  run a scenario instead (palpa-palpate --scenario FILE --help for its options)");
+      "  --scenario FILE ...  run a scenario instead (palpa-palpate --scenario FILE --help for its options)\n"
+      "Every number outside its range is refused (never clamped).");
+}
+
+// The most ticks one run may simulate (two timing records of 8 bytes each per tick).
+constexpr long kMaxTicks = 10'000'000;
+
+[[noreturn]] void refuse(const std::string& what) {
+  std::fprintf(stderr, "palpa-palpate: %s\n", what.c_str());
+  std::exit(2);
+}
+
+std::string shortest(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
 }
 
 bool parse(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto next = [&](const char* what) -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "palpa-palpate: %s needs a value\n", what);
-        std::exit(2);
-      }
+      if (i + 1 >= argc) refuse(std::string(what) + " needs a value");
       return argv[++i];
     };
-    auto number = [&](const char* what) {
+    // A finite number in [lo, hi] (unit for the message), else exit 2 naming the range.
+    auto number = [&](const char* what, double lo, double hi, const char* unit) {
       const char* s = next(what);
       char* end = nullptr;
-      double v = std::strtod(s, &end);
-      if (end == s || *end != '\0' || !std::isfinite(v) || v <= 0) {
-        std::fprintf(stderr, "palpa-palpate: %s needs a positive number, got '%s'\n", what, s);
-        std::exit(2);
-      }
+      errno = 0;
+      const double v = std::strtod(s, &end);
+      if (end == s || *end != '\0' || !std::isfinite(v) || !(v >= lo && v <= hi))
+        refuse(std::string(what) + ": expected a number in " + shortest(lo) + " .. " + shortest(hi) + unit +
+               ", got '" + s + "'");
+      return v;
+    };
+    // A whole number in [lo, hi] (decimal digits only: "2.5" and "1e3" are refused).
+    auto integer = [&](const char* what, long long lo, long long hi) {
+      const char* s = next(what);
+      char* end = nullptr;
+      errno = 0;
+      const long long v = std::strtoll(s, &end, 10);
+      if (end == s || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+        refuse(std::string(what) + ": expected an integer in " + std::to_string(lo) + " .. " + std::to_string(hi) +
+               ", got '" + s + "'");
       return v;
     };
     if (a == "--help" || a == "-h") { usage(); std::exit(0); }
     else if (a == "--mesh") o.mesh = next("--mesh");
-    else if (a == "--unit") o.unit_m = number("--unit");
-    else if (a == "--organ-vertices") o.organ_vertices = static_cast<std::size_t>(number("--organ-vertices"));
-    else if (a == "--probes") o.probes = std::clamp(static_cast<int>(number("--probes")), 1, 8);
-    else if (a == "--seconds") o.seconds = number("--seconds");
-    else if (a == "--rate") o.rate_hz = number("--rate");
-    else if (a == "--depth") o.depth = number("--depth");
-    else if (a == "--stiffness") o.stiffness = number("--stiffness");
-    else if (a == "--friction") o.friction = number("--friction");
+    else if (a == "--unit") o.unit_m = number("--unit", 1e-6, 1.0, " m");
+    else if (a == "--organ-vertices") o.organ_vertices = static_cast<std::size_t>(integer("--organ-vertices", 100, 5'000'000));
+    else if (a == "--probes") o.probes = static_cast<int>(integer("--probes", 1, 8));
+    else if (a == "--seconds") o.seconds = number("--seconds", 1e-3, 3600.0, " s");
+    else if (a == "--rate") o.rate_hz = number("--rate", 100.0, 10000.0, " Hz");
+    else if (a == "--depth") o.depth = number("--depth", 1e-4, 0.05, " m");
+    else if (a == "--stiffness") o.stiffness = number("--stiffness", 1e-3, 1e6, " N/m");
+    else if (a == "--friction") o.friction = number("--friction", 0.0, 2.0, "");
     else if (a == "--record") o.record = next("--record");
     else { std::fprintf(stderr, "palpa-palpate: unknown option '%s'\n", a.c_str()); usage(); return false; }
   }
+  // The run's length in ticks, before anything is allocated for it.
+  const double ticks = std::round(o.seconds * o.rate_hz);
+  if (!(ticks >= 1 && ticks <= kMaxTicks))
+    refuse("--seconds " + shortest(o.seconds) + " at --rate " + shortest(o.rate_hz) + " makes " + std::to_string(static_cast<long long>(ticks)) +
+           " ticks; it must make 1 .. " + std::to_string(kMaxTicks));
   return true;
 }
 

@@ -44,8 +44,9 @@ const char* kUsage =
     "  --rate HZ              haptic rate, Hz, in [100, 10000] (default 1000)\n"
     "  --probes N             scripted probes, integer in [1, 8] (default 1)\n"
     "  --record SESSION       record the scripted run into a new session file\n"
-    "  --indent X,Y,Z         press at the surface point nearest to X,Y,Z (m, world frame at t = 0)\n"
-    "  --depths FROM:TO:STEP  indentation depths, m (0 <= FROM <= TO, STEP > 0, at most 10000 depths)\n"
+    "  --indent X,Y,Z         press at the surface point nearest to X,Y,Z (m, world frame at t = 0;\n"
+    "                         |X|, |Y|, |Z| <= 10)\n"
+    "  --depths FROM:TO:STEP  indentation depths, m (0 <= FROM <= TO <= 0.1, STEP > 0, at most 10000 depths)\n"
     "  --json OUT             write one record per depth: depth_m, force_n, surface_point_m\n";
 
 double number(const std::string& option, const std::string& text) {
@@ -79,10 +80,15 @@ ScenarioOptions parse(const std::vector<std::string>& args) {
       if (i + 1 >= args.size()) throw Usage(a + " needs a value");
       return args[++i];
     };
-    if (a == "--scenario") {
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUsage, stdout);
+      std::exit(0);
+    } else if (a == "--scenario") {
       o.scenario = value();
     } else if (a == "--indent") {
       const auto v = numbers(a, value(), ',', 3, "X,Y,Z in metres");
+      for (double c : v)
+        if (!(std::abs(c) <= 10)) throw Usage("--indent: expected X,Y,Z in metres with |X|, |Y|, |Z| <= 10, got '" + args[i] + "'");
       o.near = Vec3(v[0], v[1], v[2]);
       o.indent = true;
     } else if (a == "--depths") {
@@ -90,8 +96,8 @@ ScenarioOptions parse(const std::vector<std::string>& args) {
       o.from = v[0];
       o.to = v[1];
       o.step = v[2];
-      if (!(o.from >= 0 && o.to >= o.from && o.step > 0))
-        throw Usage("--depths: expected 0 <= FROM <= TO and STEP > 0, got '" + args[i] + "'");
+      if (!(o.from >= 0 && o.to >= o.from && o.to <= 0.1 && o.step > 0))
+        throw Usage("--depths: expected 0 <= FROM <= TO <= 0.1 m and STEP > 0, got '" + args[i] + "'");
       if ((o.to - o.from) / o.step > 10000) throw Usage("--depths: at most 10000 depths, got '" + args[i] + "'");
       have_depths = true;
     } else if (a == "--record") {
@@ -113,6 +119,12 @@ ScenarioOptions parse(const std::vector<std::string>& args) {
     }
   }
   if (o.scenario.empty()) throw Usage("--scenario needs a file");
+  if (!o.indent && std::lround(o.seconds * o.rate_hz) < 1)
+  {
+    std::ostringstream m;
+    m << "--seconds " << o.seconds << " at --rate " << o.rate_hz << " makes no tick";
+    throw Usage(m.str());
+  }
   if (o.indent != have_depths) throw Usage("--indent and --depths go together");
   if (!o.json.empty() && !o.indent) throw Usage("--json goes with --indent");
   if (!o.record.empty() && o.indent) throw Usage("--record goes with the scripted run, not --indent");

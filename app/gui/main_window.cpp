@@ -1274,8 +1274,9 @@ void MainWindow::pull_surface() {
     }
     return;
   }
-  // The view copies the changed blocks straight from the loop's mailbox
-  // (a new view or loop, or a reset: everything once).
+  // The view copies the changed blocks from the loop's mailbox, through the
+  // workbench's copy read with atomic loads (a new view or loop, or a
+  // reset: everything once).
   const bool everything = view_at_rest_ || need_full_sync_;
   need_full_sync_ = false;
   workbench_.pull_surface(

@@ -404,7 +404,9 @@ bool Workbench::pull_surface(
   core::SurfaceMailbox& box = loop_->surface_changes();
   if (everything) box.mark_all();
   const auto ranges = box.begin_read();
-  sink(box.stream(), ranges);
+  if (pulled_.size() != 4 * box.vertex_count()) pulled_.assign(4 * box.vertex_count(), 0.0f);
+  box.read_into(pulled_, ranges);
+  sink(pulled_, ranges);
   box.end_read();
   return true;
 }

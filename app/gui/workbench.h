@@ -183,10 +183,11 @@ class Workbench {
   /// The stream entries (4 floats per vertex) changed since the last call,
   /// from the loop (everything after a rebuild); empty without a loop.
   std::vector<IndexRange> take_surface_changes(std::vector<float>& stream);
-  /// Hands `sink` the loop's surface mailbox (the whole stream, 4 floats per
-  /// vertex) and the ranges changed since the last call, for the view to
-  /// copy straight from (no intermediate copy); `everything`: every vertex
-  /// is handed over this time. Returns false without a loop.
+  /// Hands `sink` the loop's surface (the whole stream, 4 floats per
+  /// vertex: the workbench's copy of the mailbox, whose changed blocks are
+  /// read with atomic loads just before) and the ranges changed since the
+  /// last call; `everything`: every vertex is handed over this time.
+  /// Returns false without a loop.
   bool pull_surface(const std::function<void(std::span<const float>, std::span<const IndexRange>)>& sink,
                     bool everything = false);
 
@@ -239,6 +240,7 @@ class Workbench {
   int selected_ = 0;
   int next_id_ = 1;
   double epoch_ = 0;  // s, CLOCK_MONOTONIC when the organ was set
+  std::vector<float> pulled_;  // pull_surface's copy of the mailbox (4 floats per vertex)
   double time_ = 0;
   double loop_time_ = 0;  // s, the loop clock's time of the latest tick read
 };

@@ -11,6 +11,7 @@
 #include "render/probe_view.h"
 #include "render/scene.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -52,11 +53,25 @@ std::optional<std::vector<double>> numbers(const std::string& s, std::size_t n) 
   return v;
 }
 
-double positive(const std::string& option, const std::string& value) {
+std::string shortest(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+// One finite number in [lo, hi]; refused (never clamped) outside it, naming the range and unit.
+double in_range(const std::string& option, const std::string& value, double lo, double hi, const char* unit) {
   auto v = numbers(value, 1);
-  if (!v || !((*v)[0] > 0)) throw RenderError(option + ": expected a positive number, got '" + value + "'");
+  if (!v || !((*v)[0] >= lo && (*v)[0] <= hi))
+    throw RenderError(option + ": expected a number in " + shortest(lo) + " .. " + shortest(hi) + unit + ", got '" +
+                      value + "'");
   return (*v)[0];
 }
+
+// Where a probe may point: within this distance of the origin on each axis, m,
+// and pressing at most this deep, m (a huge coordinate gave a wrong depth).
+constexpr double kMaxProbeCoordinate = 10.0;
+constexpr double kMaxProbeDepth = 0.1;
 
 }  // namespace
 
@@ -66,24 +81,26 @@ std::string render_usage(const std::string& program) {
          "Renders an organ pressed by probes to a PNG, with no display.\n"
          "  --mesh FILE            organ mesh (default: the bundled default organ)\n"
          "  --unit auto|m|cm|mm    unit of the mesh file (default auto)\n"
-         "  --probe X,Y,Z,DEPTH    press DEPTH m into the surface point nearest (X,Y,Z) m (repeatable;\n"
-         "                         default: one probe 0.006 m into the organ's highest point)\n"
+         "  --probe X,Y,Z,DEPTH    press DEPTH m (0 .. 0.1) into the surface point nearest (X,Y,Z) m\n"
+         "                         (|X|, |Y|, |Z| <= 10; repeatable, at most 8; default: one probe\n"
+         "                         0.006 m into the organ's highest point)\n"
          "  --output FILE.png      picture to write (default palpa-render.png)\n"
          "  --size WxH             pixels (default 960x720)\n"
          "  --gl auto|osmesa|egl   OpenGL backend (default auto: EGL on a GPU, else OSMesa)\n"
          "  --path partial|vtk|cpu stream upload path (default partial)\n"
-         "  --settle SECONDS       simulated time before the picture (default 1)\n"
+         "  --settle SECONDS       simulated time before the picture, 0.001 .. 60 (default 1)\n"
          "  --scenario FILE        a scenario: its organ, tissues, lesions, pulse and breathing\n"
          "  --reveal               also draw the scenario's hidden and after-exam lesions and the force\n"
          "                         arrows (debriefing; without it a scenario's picture shows no force)\n"
-         "  --stiffness N_PER_M    vertex stiffness (default 200)\n"
-         "  --damping NS_PER_M     vertex damping (default 2)\n"
-         "  --mass KG              vertex mass (default 0.001)\n"
+         "  --stiffness N_PER_M    vertex stiffness, 0.001 .. 1e+06 (default 200)\n"
+         "  --damping NS_PER_M     vertex damping, 1e-06 .. 10000 (default 2)\n"
+         "  --mass KG              vertex mass, 1e-09 .. 10 (default 0.001)\n"
          "  --model linear|exponential|viscoelastic  local model (default linear)\n"
          "  --shape gaussian|wendland|volume        shape function (default wendland)\n"
-         "  --radius M             shape-function support radius (default 0.025)\n"
+         "  --radius M             shape-function support radius, 0.0001 .. 0.5 (default 0.025)\n"
          "  --view X,Y,Z           direction from the organ to the eye (default: along the first probe)\n"
-         "  --help                 this text\n";
+         "  --help                 this text\n"
+         "Every number outside its range is refused (never clamped).\n";
 }
 
 RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* help) {
@@ -113,15 +130,26 @@ RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* h
     } else if (a == "--probe") {
       const std::string& v = value();
       auto n = numbers(v, 4);
-      if (!n || !((*n)[3] >= 0)) throw RenderError("--probe: expected X,Y,Z,DEPTH in metres, got '" + v + "'");
+      bool ok = n && (*n)[3] >= 0 && (*n)[3] <= kMaxProbeDepth;
+      for (int k = 0; ok && k < 3; ++k) ok = std::abs((*n)[k]) <= kMaxProbeCoordinate;
+      if (!ok)
+        throw RenderError("--probe: expected X,Y,Z,DEPTH in metres with |X|, |Y|, |Z| <= 10 and DEPTH 0 .. 0.1, got '" +
+                          v + "'");
       o.probes.push_back({Vec3((*n)[0], (*n)[1], (*n)[2]), (*n)[3]});
     } else if (a == "--output") {
       o.output = value();
     } else if (a == "--size") {
       const std::string& v = value();
-      int w = 0, h = 0;
-      char extra = 0;
-      if (std::sscanf(v.c_str(), "%dx%d%c", &w, &h, &extra) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192)
+      // Two whole numbers of decimal digits (no overflow: at most 5 digits each).
+      const auto x = v.find('x');
+      auto pixels = [&](const std::string& d) {
+        const bool digits = !d.empty() && d.size() <= 5 &&
+                            std::all_of(d.begin(), d.end(), [](char c) { return c >= '0' && c <= '9'; });
+        return digits ? std::stoi(d) : -1;
+      };
+      const int w = x == std::string::npos ? -1 : pixels(v.substr(0, x));
+      const int h = x == std::string::npos ? -1 : pixels(v.substr(x + 1));
+      if (w < 16 || h < 16 || w > 8192 || h > 8192)
         throw RenderError("--size: expected WxH with 16..8192 pixels each, got '" + v + "'");
       o.width = w;
       o.height = h;
@@ -138,13 +166,13 @@ RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* h
       else
         throw RenderError("--path: expected partial, vtk or cpu, got '" + v + "'");
     } else if (a == "--settle") {
-      o.settle_time = positive(a, value());
+      o.settle_time = in_range(a, value(), 1e-3, 60.0, " s");
     } else if (a == "--stiffness") {
-      o.material.stiffness = positive(a, value());
+      o.material.stiffness = in_range(a, value(), 1e-3, 1e6, " N/m");
     } else if (a == "--damping") {
-      o.material.damping = positive(a, value());
+      o.material.damping = in_range(a, value(), 1e-6, 1e4, " N s/m");
     } else if (a == "--mass") {
-      o.material.mass = positive(a, value());
+      o.material.mass = in_range(a, value(), 1e-9, 10.0, " kg");
     } else if (a == "--model") {
       const std::string& v = value();
       if (v == "linear")
@@ -166,17 +194,23 @@ RenderJobOptions parse_render_args(const std::vector<std::string>& args, bool* h
       else
         throw RenderError("--shape: expected gaussian, wendland or volume, got '" + v + "'");
     } else if (a == "--radius") {
-      o.shape.radius = positive(a, value());
+      o.shape.radius = in_range(a, value(), 1e-4, 0.5, " m");
     } else if (a == "--view") {
       const std::string& v = value();
       auto n = numbers(v, 3);
-      if (!n || Vec3((*n)[0], (*n)[1], (*n)[2]).norm() == 0)
-        throw RenderError("--view: expected a non-zero direction X,Y,Z, got '" + v + "'");
-      o.view_dir = Vec3((*n)[0], (*n)[1], (*n)[2]);
+      // Any finite direction but zero; scaled by its largest component so that
+      // 1e-200,0,0 is not taken for zero (its norm underflows) nor 1e300 for infinite.
+      const Vec3 d = n ? Vec3((*n)[0], (*n)[1], (*n)[2]) : Vec3::Zero();
+      const double largest = d.cwiseAbs().maxCoeff();
+      if (!n || !(largest > 0)) throw RenderError("--view: expected a non-zero direction X,Y,Z, got '" + v + "'");
+      o.view_dir = d / largest;
     } else {
       throw RenderError("unknown option '" + a + "' (see --help)");
     }
   }
+  if (o.probes.size() > haptics::kMaxProbes)
+    throw RenderError("--probe: at most " + std::to_string(haptics::kMaxProbes) + " probes, got " +
+                      std::to_string(o.probes.size()));
   return o;
 }
 

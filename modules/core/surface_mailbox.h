@@ -63,8 +63,12 @@ class SurfaceMailbox {
         const Index stop = std::min<Index>(end, (block + 1) * kBlock);
         versions_[block].fetch_add(1, std::memory_order_acq_rel);  // odd: being written
         std::atomic_thread_fence(std::memory_order_release);
-        std::memcpy(mirror_.get() + 4 * std::size_t{b}, stream.data() + 4 * std::size_t{b},
-                    16 * std::size_t{stop - b});
+        // Relaxed atomic stores (plain moves on x86): the reader may be
+        // reading the same floats; a torn block is caught by its version.
+        float* dst = mirror_.get();
+        const float* src = stream.data();
+        for (std::size_t k = 4 * std::size_t{b}, e = 4 * std::size_t{stop}; k < e; ++k)
+          std::atomic_ref<float>(dst[k]).store(src[k], std::memory_order_relaxed);
         versions_[block].fetch_add(1, std::memory_order_release);  // even again
         changed_[block / 64].fetch_or(std::uint64_t{1} << (block % 64), std::memory_order_release);
         b = stop;
@@ -79,8 +83,8 @@ class SurfaceMailbox {
 
   // ---- reader ----
   /// The ranges of the blocks changed since the last read (sorted,
-  /// disjoint, contiguous blocks merged); their values are in stream() until
-  /// end_read(). The first read returns everything.
+  /// disjoint, contiguous blocks merged); copy their values out with
+  /// read_into() before end_read(). The first read returns everything.
   std::span<const IndexRange> begin_read() noexcept {
     ranges_.clear();
     read_blocks_.clear();
@@ -104,8 +108,20 @@ class SurfaceMailbox {
     }
     return ranges_;
   }
-  /// The mirror: 4 floats per vertex.
-  std::span<const float> stream() const { return {mirror_.get(), 4 * vertices_}; }
+  /// Copies the mirror's entries in `ranges` (4 floats per vertex) into the
+  /// same places of `dst` (the whole surface, 4 floats per vertex) with
+  /// relaxed atomic loads, so a read racing a write is no data race (the
+  /// versions checked by end_read() send a torn block again). Ranges past
+  /// either end are cut. Never allocates.
+  void read_into(std::span<float> dst, std::span<const IndexRange> ranges) const noexcept {
+    float* mirror = mirror_.get();
+    const std::size_t limit = std::min(dst.size(), 4 * vertices_);
+    for (const IndexRange& r : ranges) {
+      const std::size_t e = std::min<std::size_t>(4 * std::size_t{r.end}, limit);
+      for (std::size_t k = 4 * std::size_t{r.begin}; k < e; ++k)
+        dst[k] = std::atomic_ref<float>(mirror[k]).load(std::memory_order_relaxed);
+    }
+  }
   /// Ends a read: blocks the writer touched since begin_read() are marked
   /// again, so the next read delivers them whole.
   void end_read() noexcept {

@@ -1,10 +1,14 @@
 #include "devices/loader.h"
 
 #include <dlfcn.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <cstdio>
 #include <set>
 #include <system_error>
 
@@ -21,7 +25,8 @@ namespace {
 constexpr std::string_view kPrefix = "libpalpa_device_";
 constexpr std::string_view kSuffix = ".so";
 
-// Splits $PALPA_PLUGIN_PATH at ':' (empty entries ignored).
+// Splits $PALPA_PLUGIN_PATH at ':' (empty entries ignored; relative ones are
+// dropped later by the constructor, which says so).
 std::vector<fs::path> env_dirs() {
   std::vector<fs::path> out;
   const char* env = std::getenv("PALPA_PLUGIN_PATH");
@@ -52,6 +57,56 @@ bool valid_name(std::string_view name) {
   });
 }
 
+std::string octal_mode(mode_t mode) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "%04o", static_cast<unsigned>(mode & 07777));
+  return buf;
+}
+
+// The trust rule for one file or folder (as OpenSSH's StrictModes): owned by
+// this user or root, and writable by no one else. An ancestor folder may be
+// world-writable when it is sticky (/tmp): others cannot replace what is in it.
+std::string untrusted(const fs::path& p, const std::string& subject, bool ancestor) {
+  struct stat st {};
+  if (::stat(p.c_str(), &st) != 0) return subject + " cannot be examined (" + std::strerror(errno) + ")";
+  const uid_t me = ::geteuid();
+  if (st.st_uid != me && st.st_uid != 0)
+    return subject + " is owned by user " + std::to_string(st.st_uid) + ", not by you (user " + std::to_string(me) +
+           ") or root";
+  const bool group = st.st_mode & S_IWGRP, others = st.st_mode & S_IWOTH;
+  if ((group || others) && !(ancestor && S_ISDIR(st.st_mode) && (st.st_mode & S_ISVTX))) {
+    const std::string who = group && others ? "its group and by others" : group ? "its group" : "others";
+    return subject + " is writable by " + who + " (mode " + octal_mode(st.st_mode) +
+           "); a plugin and its folders must be writable only by their owner (chmod go-w '" + p.string() + "')";
+  }
+  return "";
+}
+
+// Every check a plugin file must pass before dlopen runs any of its code: the
+// file and its folder, every folder above them, and the same for the file a
+// symbolic link leads to. "" when it may be loaded.
+std::string trust_problem(const fs::path& path) {
+  auto chain = [](const fs::path& file) -> std::string {
+    if (std::string why = untrusted(file, "the file '" + file.string() + "'", false); !why.empty()) return why;
+    fs::path dir = file.parent_path();
+    bool first = true;
+    while (!dir.empty()) {
+      if (std::string why = untrusted(dir, "its folder '" + dir.string() + "'", !first); !why.empty()) return why;
+      first = false;
+      if (dir == dir.root_path()) break;
+      dir = dir.parent_path();
+    }
+    return "";
+  };
+  if (std::string why = chain(path); !why.empty()) return why;
+  std::error_code ec;
+  const fs::path real = fs::canonical(path, ec);
+  if (ec) return "the file cannot be resolved (" + ec.message() + ")";
+  if (real != path)
+    if (std::string why = chain(real); !why.empty()) return why + " (the link leads there)";
+  return "";
+}
+
 // Resolves one entry point; missing required ones are an error naming the symbol.
 template <class Fn>
 Fn symbol(void* lib, const char* name, const fs::path& path, bool required) {
@@ -66,12 +121,19 @@ Fn symbol(void* lib, const char* name, const fs::path& path, bool required) {
 
 PluginLoader::PluginLoader() : PluginLoader(std::vector<fs::path>{}) {}
 
-// Search order: $PALPA_PLUGIN_PATH, extra dirs, build tree, installed layout.
+// Search order: extra dirs, build tree, installed layout, then $PALPA_PLUGIN_PATH
+// (which adds plugins but cannot shadow the program's own). Absolute folders only.
 PluginLoader::PluginLoader(std::vector<fs::path> extra_dirs) {
-  dirs_ = env_dirs();
-  for (auto& d : extra_dirs) dirs_.push_back(std::move(d));
-  if (std::strlen(PALPA_DEFAULT_PLUGIN_DIR) > 0) dirs_.emplace_back(PALPA_DEFAULT_PLUGIN_DIR);
-  if (fs::path inst = installed_dir(); !inst.empty()) dirs_.push_back(inst);
+  auto add = [&](fs::path d, const char* from) {
+    if (d.is_absolute())
+      dirs_.push_back(d.lexically_normal());
+    else
+      ignored_.push_back("relative folder '" + d.string() + "' " + from + " ignored");
+  };
+  for (auto& d : extra_dirs) add(std::move(d), "given to the loader");
+  if (std::strlen(PALPA_DEFAULT_PLUGIN_DIR) > 0) add(PALPA_DEFAULT_PLUGIN_DIR, "of the build");
+  if (fs::path inst = installed_dir(); !inst.empty()) add(inst, "of the installation");
+  for (auto& d : env_dirs()) add(std::move(d), "in $PALPA_PLUGIN_PATH");
 }
 
 std::string PluginLoader::file_name(std::string_view name) {
@@ -95,12 +157,19 @@ Plugin PluginLoader::load(std::string_view name) const {
   std::string list;
   for (const auto& dir : dirs_) list += (list.empty() ? "" : ", ") + dir.string();
   if (list.empty()) list = "(empty search path)";
+  for (const auto& note : ignored_) list += "; " + note;
   throw DeviceError("unknown device plugin '" + std::string(name) + "': no " + file + " in " + list);
 }
 
 Plugin PluginLoader::load_file(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw DeviceError("device plugin file '" + path.string() + "' does not exist");
+  if (!path.is_absolute())
+    throw DeviceError("device plugin file '" + path.string() + "' is not an absolute path");
+
+  // Trust before any code of it runs (dlopen runs its constructors).
+  if (const std::string why = trust_problem(path.lexically_normal()); !why.empty())
+    throw DeviceError("refused device plugin '" + path.string() + "': " + why);
 
   // Load with all symbols resolved now, kept private to this plugin.
   dlerror();
@@ -141,6 +210,7 @@ Plugin PluginLoader::load_file(const fs::path& path) {
 }
 
 std::vector<std::string> PluginLoader::available() const {
+  // Every name present in the search path, then only those load() would load.
   std::set<std::string> names;
   for (const auto& dir : dirs_) {
     std::error_code ec;
@@ -151,7 +221,16 @@ std::vector<std::string> PluginLoader::available() const {
         names.insert(f.substr(kPrefix.size(), f.size() - kPrefix.size() - kSuffix.size()));
     }
   }
-  return {names.begin(), names.end()};
+  std::vector<std::string> out;
+  for (const auto& name : names) {
+    try {
+      load(name);
+      out.push_back(name);
+    } catch (const DeviceError&) {
+      // not loadable: an invalid name, untrusted, not a library, another interface version
+    }
+  }
+  return out;
 }
 
 Device Plugin::create(const std::string& options) const {

@@ -3,10 +3,19 @@
 // of plugin_api.h) and checks their interface version.
 //
 // Plugin NAME is the file libpalpa_device_NAME.so, looked up in this order:
-//   1. every directory in $PALPA_PLUGIN_PATH (':'-separated),
-//   2. directories given to the PluginLoader constructor,
-//   3. the build tree's plugin folder (PALPA_DEFAULT_PLUGIN_DIR, i.e.
-//      <build>/plugins), then <dir of the executable>/../lib/palpa/plugins.
+//   1. directories given to the PluginLoader constructor,
+//   2. the build tree's plugin folder (PALPA_DEFAULT_PLUGIN_DIR, i.e.
+//      <build>/plugins), then <dir of the executable>/../lib/palpa/plugins,
+//   3. every directory in $PALPA_PLUGIN_PATH (':'-separated): it adds
+//      plugins, it cannot shadow the program's own.
+// Only absolute folders are searched (relative ones are ignored, and the
+// "unknown device plugin" message says so). Before dlopen runs any code of a
+// plugin, the file, its folder and every folder above them (and, through a
+// symbolic link, the file it leads to and its folders) must be owned by this
+// user or root and writable by no one else (a sticky folder such as /tmp may
+// be above it), as OpenSSH's StrictModes requires of its files; otherwise
+// the plugin is refused and the message says which one and why
+// (plugins/README.md, "Trust").
 
 #include "devices/device.h"
 
@@ -55,19 +64,29 @@ class PluginLoader {
 
   /// Loads a plugin file. Throws DeviceError:
   ///  - "device plugin file '<path>' does not exist"
+  ///  - "device plugin file '<path>' is not an absolute path"
+  ///  - "refused device plugin '<path>': its folder '<dir>' is writable by others
+  ///    (mode 0777); a plugin and its folders must be writable only by their
+  ///    owner (chmod go-w '<dir>')", or "... is owned by user 1000, not by you
+  ///    (user 0) or root" (checked before dlopen)
   ///  - "cannot load device plugin '<path>': <reason from the dynamic loader>"
   ///  - "device plugin '<path>' lacks the entry point <symbol>"
   ///  - "device plugin '<path>' implements interface <theirs>, but this program needs <ours>"
   static Plugin load_file(const std::filesystem::path& path);
 
-  /// Names of the plugins present in the search path (sorted, unique).
+  /// Names of the plugins load() would load (sorted, unique): trusted,
+  /// loadable and of this interface version. (Each is loaded to find out.)
   std::vector<std::string> available() const;
+
+  /// Search-path entries that were dropped, with the reason.
+  const std::vector<std::string>& ignored() const { return ignored_; }
 
   /// File name of plugin `name`: libpalpa_device_<name>.so.
   static std::string file_name(std::string_view name);
 
  private:
   std::vector<std::filesystem::path> dirs_;
+  std::vector<std::string> ignored_;
 };
 
 }  // namespace palpa::devices

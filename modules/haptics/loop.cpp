@@ -510,10 +510,7 @@ std::vector<IndexRange> HapticLoop::take_surface_changes(std::vector<float>& str
     mailbox_->mark_all();
   }
   const auto ranges = mailbox_->begin_read();
-  const auto src = mailbox_->stream();
-  for (const auto& r : ranges)
-    std::copy(src.begin() + 4 * std::size_t{r.begin}, src.begin() + 4 * std::size_t{r.end},
-              stream.begin() + 4 * std::size_t{r.begin});
+  mailbox_->read_into(stream, ranges);
   std::vector<IndexRange> out(ranges.begin(), ranges.end());
   mailbox_->end_read();
   return out;

@@ -34,14 +34,24 @@ struct RawMesh {
 /// Throws MeshError("<source>: <what>").
 [[noreturn]] void fail(const std::string& source, const std::string& what);
 
-/// OBJ, STL, PLY, OFF through OpenMesh's readers (ext lower-case, without dot).
-RawMesh read_openmesh(const std::filesystem::path& path, const std::string& ext, const LoadOptions& options);
+/// STL (ASCII and binary) through OpenMesh's reader, after our own scan.
+RawMesh read_stl(const std::filesystem::path& path, const LoadOptions& options);
 
-/// Legacy VTK (.vtk) and XML PolyData (.vtp) through VTK's readers.
-RawMesh read_vtk(const std::filesystem::path& path, const std::string& ext, const LoadOptions& options);
+/// XML PolyData (.vtp) through VTK's reader.
+RawMesh read_vtp(const std::filesystem::path& path, const LoadOptions& options);
 
-/// SOFA's .trian text format (own parser).
-RawMesh read_trian(const std::filesystem::path& path, const LoadOptions& options);
+// Our own parsers (io_text.cpp, io.cpp), on the file's bytes. Each checks
+// every count against its limit and the bytes left before allocating.
+/// Wavefront OBJ (mtllib and every other non-geometry line ignored).
+RawMesh read_obj(const std::string& bytes, const std::string& source, const LoadOptions& options);
+/// ASCII OFF (and COFF, NOFF, STOFF).
+RawMesh read_off(const std::string& bytes, const std::string& source, const LoadOptions& options);
+/// PLY, ascii or binary either endian.
+RawMesh read_ply(const std::string& bytes, const std::string& source, const LoadOptions& options);
+/// Legacy VTK POLYDATA, ASCII or BINARY, either cell layout.
+RawMesh read_legacy_vtk(const std::string& bytes, const std::string& source, const LoadOptions& options);
+/// SOFA's .trian text format.
+RawMesh read_trian(const std::string& bytes, const std::string& source, const LoadOptions& options);
 
 /// Checks a soup (limits, finite coordinates, face sizes, index range),
 /// fan-triangulates it, cleans it, converts it to metres and finalizes it.

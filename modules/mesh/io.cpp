@@ -3,6 +3,8 @@
 
 #include "mesh/internal_io.h"
 
+#include "core/input_file.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -13,6 +15,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
+#include <limits>
 #include <sstream>
 #include <system_error>
 
@@ -22,6 +26,18 @@ namespace internal {
 [[noreturn]] void fail(const std::string& source, const std::string& what) {
   throw MeshError(source + ": " + what);
 }
+
+namespace {
+// A number for a message: shortest %g form that reads back the same (1e+30, 0.001).
+std::string number(double v) {
+  char buf[40];
+  for (int digits = 6; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+}  // namespace
 
 // ---------------------------------------------------------------------------
 // Checks a raw soup, fan-triangulates it, cleans it and converts it to metres.
@@ -38,10 +54,20 @@ SurfaceMesh build_mesh(RawMesh raw, const LoadOptions& options, const std::strin
   if (nv > options.max_vertices)
     fail(source, "has more than " + std::to_string(options.max_vertices) + " vertices (LoadOptions::max_vertices)");
 
-  // Finite coordinates.
-  for (std::size_t i = 0; i < nv; ++i)
-    if (!raw.vertices[i].allFinite())
+  // Finite coordinates within the stated magnitude, and a mesh that is not a speck.
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (std::size_t i = 0; i < nv; ++i) {
+    const Vec3& p = raw.vertices[i];
+    if (!p.allFinite())
       fail(source, "vertex " + std::to_string(i + base) + " has a coordinate that is not a finite number");
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(p[c]) > options.max_coordinate)
+        fail(source, "vertex " + std::to_string(i + base) + " has the coordinate " + number(p[c]) +
+                         ", beyond the limit of " + number(options.max_coordinate) +
+                         " file units (LoadOptions::max_coordinate)");
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
 
   // Every face has at least three vertices, all in range.
   std::size_t n_triangles = 0;
@@ -50,6 +76,10 @@ SurfaceMesh build_mesh(RawMesh raw, const LoadOptions& options, const std::strin
     if (end - begin < 3)
       fail(source, "face " + std::to_string(f + base) + " has " + std::to_string(end - begin) +
                        " vertices; a face needs at least 3");
+    if (end - begin > options.max_face_vertices)
+      fail(source, "face " + std::to_string(f + base) + " has " + std::to_string(end - begin) +
+                       " vertices, more than the limit of " + std::to_string(options.max_face_vertices) +
+                       " (LoadOptions::max_face_vertices)");
     for (std::size_t k = begin; k < end; ++k) {
       const std::int64_t v = raw.face_indices[k];
       if (v < 0 || std::uint64_t(v) >= nv)
@@ -63,6 +93,10 @@ SurfaceMesh build_mesh(RawMesh raw, const LoadOptions& options, const std::strin
     fail(source, "has more than " + std::to_string(options.max_triangles) +
                      " triangles (LoadOptions::max_triangles)");
   if (n_triangles == 0) fail(source, "has no triangles");
+  const double extent_m = (hi - lo).maxCoeff() * options.unit_m;
+  if (!(extent_m >= options.min_extent_m))
+    fail(source, "is " + number(extent_m) + " m across, less than the smallest size of " +
+                     number(options.min_extent_m) + " m (LoadOptions::min_extent_m)");
 
   // Fan triangulation (polygons are assumed convex enough for a fan).
   SurfaceMesh mesh;
@@ -97,10 +131,8 @@ SurfaceMesh build_mesh(RawMesh raw, const LoadOptions& options, const std::strin
 // ---------------------------------------------------------------------------
 // SOFA .trian: N, N lines "x y z", M, M lines "i j k n0 n1 n2" (0-based vertex
 // ids, then neighbour-triangle ids we ignore). Blank lines are skipped.
-RawMesh read_trian(const std::filesystem::path& path, const LoadOptions& options) {
-  const std::string source = path.string();
-  std::ifstream in(path);
-  if (!in) fail(source, "cannot be opened for reading");
+RawMesh read_trian(const std::string& bytes, const std::string& source, const LoadOptions& options) {
+  std::istringstream in(bytes);
 
   // Next non-blank line, split into tokens; false at the end of the file.
   std::string line;
@@ -127,18 +159,20 @@ RawMesh read_trian(const std::filesystem::path& path, const LoadOptions& options
 
   RawMesh raw;
   const std::size_t nv = count("vertex", "vertices", options.max_vertices, "max_vertices");
-  raw.vertices.resize(nv);
+  // Grown as lines arrive, never sized from the count (a short file claiming 20M vertices costs nothing).
   for (std::size_t i = 0; i < nv; ++i) {
     // One vertex: three numbers (a non-number counts as not finite).
     if (!next_line()) fail(source, "the file ends before vertex " + std::to_string(i));
     if (tok.size() < 3) fail(source, "vertex " + std::to_string(i) + " has fewer than 3 coordinates");
+    Vec3 p;
     for (int c = 0; c < 3; ++c) {
       char* end = nullptr;
       const double x = std::strtod(tok[c].c_str(), &end);
       if (end != tok[c].c_str() + tok[c].size() || !std::isfinite(x))
         fail(source, "vertex " + std::to_string(i) + " has a coordinate that is not a finite number");
-      raw.vertices[i][c] = x;
+      p[c] = x;
     }
+    raw.vertices.push_back(p);
   }
   const std::size_t nt = count("triangle", "triangles", options.max_triangles, "max_triangles");
   for (std::size_t f = 0; f < nt; ++f) {
@@ -232,22 +266,31 @@ void write_obj(std::ostream& out, const SurfaceMesh& m) {
 SurfaceMesh load_mesh(const std::filesystem::path& path, const LoadOptions& options, CleanReport* report) {
   const std::string source = path.string();
 
-  // The file itself.
+  // The file itself: it exists, has a known extension, and is a regular file
+  // within the size limit (never a FIFO or a device: read on the descriptor
+  // that was checked).
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) internal::fail(source, "file not found");
   if (std::filesystem::is_directory(path, ec)) internal::fail(source, "is a directory, not a mesh file");
   const std::string ext = lower_extension(path);
-  const bool openmesh = ext == "obj" || ext == "stl" || ext == "ply" || ext == "off";
-  const bool vtk = ext == "vtk" || ext == "vtp";
-  if (!openmesh && !vtk && ext != "trian")
+  static const char* const kKnown[] = {"obj", "stl", "ply", "off", "vtk", "vtp", "trian"};
+  if (std::find(std::begin(kKnown), std::end(kKnown), ext) == std::end(kKnown))
     internal::fail(source, (ext.empty() ? std::string("has no file extension") : "has an unknown extension '." + ext + "'") +
                                "; expected .obj, .stl, .ply, .off, .vtk, .vtp or .trian");
-  if (!std::ifstream(path)) internal::fail(source, "cannot be opened for reading");
+  std::string bytes;
+  const std::string problem = read_regular_file(path, options.max_file_bytes, "LoadOptions::max_file_bytes", bytes);
+  if (!problem.empty()) internal::fail(source, problem);
 
-  // Read the raw soup, then check, clean and finalize it.
-  internal::RawMesh raw = openmesh ? internal::read_openmesh(path, ext, options)
-                          : vtk    ? internal::read_vtk(path, ext, options)
-                                   : internal::read_trian(path, options);
+  // Read the raw soup, then check, clean and finalize it. STL and VTP are
+  // handed to their libraries by name (the file was checked just now).
+  internal::RawMesh raw;
+  if (ext == "obj") raw = internal::read_obj(bytes, source, options);
+  else if (ext == "off") raw = internal::read_off(bytes, source, options);
+  else if (ext == "ply") raw = internal::read_ply(bytes, source, options);
+  else if (ext == "vtk") raw = internal::read_legacy_vtk(bytes, source, options);
+  else if (ext == "trian") raw = internal::read_trian(bytes, source, options);
+  else if (ext == "stl") raw = internal::read_stl(path, options);
+  else raw = internal::read_vtp(path, options);
   return internal::build_mesh(std::move(raw), options, source, report);
 }
 

@@ -9,6 +9,7 @@
 #include "mesh/surface_mesh.h"
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -36,8 +37,17 @@ struct LoadOptions {
   /// Keep only the component with the most triangles (drops stray specks).
   bool keep_largest_component = false;
   /// Refuse larger inputs with a MeshError (protects against absurd files).
+  /// Every limit is checked before the memory it guards is allocated.
   std::size_t max_vertices = 20'000'000;
   std::size_t max_triangles = 40'000'000;
+  /// Largest file read, bytes (2 GiB).
+  std::uintmax_t max_file_bytes = std::uintmax_t(2) << 30;
+  /// Most vertices one polygon may have (OBJ, OFF, PLY, VTK polygons and strips).
+  std::size_t max_face_vertices = 256;
+  /// Largest |coordinate| accepted, file units (1e6: a kilometre in mm).
+  double max_coordinate = 1e6;
+  /// Smallest largest extent accepted, m after the unit (1 micrometre).
+  double min_extent_m = 1e-6;
 };
 
 /// What cleaning changed.
@@ -60,12 +70,16 @@ struct CleanReport {
 /// Loads a mesh file (format chosen by extension, case-insensitive:
 /// .obj .stl .ply .off .vtk .vtp .trian) in file units scaled by
 /// options.unit_m to metres. Throws MeshError naming the file when it is
-/// missing or unreadable, has an unknown extension, holds no triangles, has
-/// non-finite coordinates, out-of-range indices, faces with fewer than three
-/// vertices, is truncated, or exceeds the size limits. Coordinates read through
-/// OpenMesh or from float files have float32 precision. OpenMesh reads are
-/// serialised internally (its readers are shared singletons); VTK may still
-/// print warnings about malformed files to stderr.
+/// missing, not a regular file (a FIFO, a device, a directory) or unreadable,
+/// has an unknown extension, holds no triangles, has non-finite coordinates or
+/// coordinates beyond LoadOptions::max_coordinate, is smaller than
+/// LoadOptions::min_extent_m, has out-of-range indices, faces with fewer than
+/// three or more than max_face_vertices vertices, is truncated, or exceeds the
+/// size limits (checked before allocating). OBJ, OFF (ASCII), PLY, legacy VTK
+/// and .trian are read by our own parsers (an OBJ's mtllib is ignored); STL
+/// through OpenMesh (serialised internally: its readers are shared
+/// singletons), .vtp through VTK's XML reader. Float files give float32
+/// precision.
 SurfaceMesh load_mesh(const std::filesystem::path& path, const LoadOptions& options = {},
                       CleanReport* report = nullptr);
 

@@ -1,13 +1,12 @@
-// OBJ, STL, PLY and OFF through OpenMesh 9's readers.
+// STL through OpenMesh 9's reader. (OBJ, OFF and PLY have our own readers,
+// io_text.cpp: OpenMesh's believed the counts in a header, followed an OBJ's
+// mtllib anywhere, and went on with stale values after a parse error.)
 //
 // OpenMesh builds a half-edge mesh by default and silently drops faces that
-// would make it non-manifold, so we hand its readers our own importer that
+// would make it non-manifold, so we hand its reader our own importer that
 // records the raw polygon soup instead. OpenMesh also hides some input errors
-// (it skips OBJ vertex lines it cannot parse, drops faces with fewer than three
-// distinct vertices, merges a NaN STL vertex into another one, and its text
-// readers carry on with stale values after a parse error), so each format gets
-// a check of its own: a scan of OBJ and STL files before OpenMesh reads them,
-// and for OFF and PLY strict number parsing plus a watch on the stream state.
+// (it drops facets with repeated corners and merges a NaN STL vertex into
+// another one), so STL files get a scan of their own before OpenMesh reads them.
 
 #include "mesh/internal_io.h"
 
@@ -143,19 +142,26 @@ class SoupImporter final : public OMIO::BaseImporter {
 };
 
 // ---------------------------------------------------------------------------
-// While alive, OpenMesh's error stream goes into a string instead of stderr, so
-// that what it says can be put into our error message.
+// While alive, what OpenMesh's error stream says is collected in a string
+// (to be put into our error message). OpenMesh's multiplex_streambuf leaks
+// the wrapper it allocates on every connect() (found by fuzz_mesh under
+// LeakSanitizer), so the stream is redirected once for the process: from then
+// on OpenMesh writes into our buffer, which each read clears (reads hold the
+// OpenMesh mutex).
 class CaptureOpenMeshErrors {
  public:
   CaptureOpenMeshErrors() : was_enabled_(::omerr().is_enabled()) {
-    had_cerr_ = ::omerr().disconnect(std::cerr);
-    ::omerr().connect(text_);
+    static std::once_flag once;
+    std::call_once(once, [] {
+      ::omerr().disconnect(std::cerr);
+      ::omerr().connect(buffer());
+    });
+    ::omerr().flush();
+    buffer().str("");
   }
   ~CaptureOpenMeshErrors() {
-    // Also undo a reader's omerr().disable() that an exception skipped past.
+    // Undo a reader's omerr().disable() that an exception skipped past.
     was_enabled_ ? ::omerr().enable() : ::omerr().disable();
-    ::omerr().disconnect(text_);
-    if (had_cerr_) ::omerr().connect(std::cerr);
   }
   CaptureOpenMeshErrors(const CaptureOpenMeshErrors&) = delete;
   CaptureOpenMeshErrors& operator=(const CaptureOpenMeshErrors&) = delete;
@@ -163,99 +169,18 @@ class CaptureOpenMeshErrors {
   /// What OpenMesh printed, on one line.
   std::string text() {
     ::omerr().flush();
-    std::string s = text_.str();
+    std::string s = buffer().str();
     std::replace(s.begin(), s.end(), '\n', ' ');
     while (!s.empty() && s.back() == ' ') s.pop_back();
     return s;
   }
 
  private:
-  std::ostringstream text_;
+  static std::ostringstream& buffer() {
+    static std::ostringstream* text = new std::ostringstream;  // lives as long as OpenMesh's stream
+    return *text;
+  }
   bool was_enabled_ = true;
-  bool had_cerr_ = false;
-};
-
-// ---------------------------------------------------------------------------
-// Number parsing for the OFF and PLY text readers. The standard one fails on
-// "nan" and "inf", and after a failure OpenMesh's readers go on with stale
-// values (an uninitialised face size can make them loop for minutes). This
-// facet accepts nan and inf (our finite check then names the vertex) and
-// throws NumberError for anything else that is not a number, which stops the
-// reader at once (the stream rethrows it because its exception mask has badbit).
-struct NumberError {
-  std::string token;
-};
-
-class StrictNumbers : public std::num_get<char> {
- protected:
-  // One whitespace-delimited token; the stream's sentry has skipped leading white space.
-  static std::string token(iter_type& in, iter_type end, std::ios_base::iostate& err) {
-    std::string t;
-    while (in != end && !std::isspace(static_cast<unsigned char>(*in)) && t.size() < 64) t += *in++;
-    if (in == end) err |= std::ios_base::eofbit;
-    if (t.empty()) err |= std::ios_base::failbit;
-    return t;
-  }
-  template <class T>
-  static iter_type real(iter_type in, iter_type end, std::ios_base::iostate& err, T& v) {
-    const std::string t = token(in, end, err);
-    if (t.empty()) return in;
-    char* stop = nullptr;
-    const double x = std::strtod(t.c_str(), &stop);
-    if (stop != t.c_str() + t.size()) throw NumberError{t};
-    v = static_cast<T>(x);  // out of float range becomes inf, which the finite check reports
-    return in;
-  }
-  template <class T>
-  static iter_type whole(iter_type in, iter_type end, std::ios_base::iostate& err, T& v) {
-    const std::string t = token(in, end, err);
-    if (t.empty()) return in;
-    char* stop = nullptr;
-    errno = 0;
-    if constexpr (std::is_signed_v<T>) {
-      const long long x = std::strtoll(t.c_str(), &stop, 10);
-      if (stop != t.c_str() + t.size() || errno == ERANGE || x < std::numeric_limits<T>::min() ||
-          x > std::numeric_limits<T>::max())
-        throw NumberError{t};
-      v = static_cast<T>(x);
-    } else {
-      // Like the standard: "-1" read as unsigned wraps around (and is then out of range as an index).
-      const unsigned long long x = std::strtoull(t.c_str(), &stop, 10);
-      if (stop != t.c_str() + t.size() || errno == ERANGE) throw NumberError{t};
-      v = static_cast<T>(x);
-    }
-    return in;
-  }
-
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err, float& v) const override {
-    return real(in, end, err, v);
-  }
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err, double& v) const override {
-    return real(in, end, err, v);
-  }
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err, long& v) const override {
-    return whole(in, end, err, v);
-  }
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err,
-                   long long& v) const override {
-    return whole(in, end, err, v);
-  }
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err,
-                   unsigned short& v) const override {
-    return whole(in, end, err, v);
-  }
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err,
-                   unsigned int& v) const override {
-    return whole(in, end, err, v);
-  }
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err,
-                   unsigned long& v) const override {
-    return whole(in, end, err, v);
-  }
-  iter_type do_get(iter_type in, iter_type end, std::ios_base&, std::ios_base::iostate& err,
-                   unsigned long long& v) const override {
-    return whole(in, end, err, v);
-  }
 };
 
 // OpenMesh's readers are singletons with state; one read at a time.
@@ -267,11 +192,12 @@ std::mutex& openmesh_mutex() {
 // ---------------------------------------------------------------------------
 // Small text helpers for the scans.
 
-// Splits a line at white space.
-std::vector<std::string_view> tokens(std::string_view line) {
+// Splits a line at white space: its first `most` tokens (the scan needs no
+// more, and a line may hold millions).
+std::vector<std::string_view> tokens(std::string_view line, std::size_t most = 5) {
   std::vector<std::string_view> out;
   std::size_t i = 0;
-  while (i < line.size()) {
+  while (i < line.size() && out.size() < most) {
     while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
     const std::size_t start = i;
     while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
@@ -293,57 +219,6 @@ std::string lower(std::string_view s) {
   std::string out(s);
   for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return out;
-}
-
-// ---------------------------------------------------------------------------
-// OBJ scan: checks every vertex line and face line the way OpenMesh will read
-// them, and counts the faces OpenMesh will drop for repeated vertices.
-struct ObjScan {
-  std::size_t vertices = 0;    // "v" lines
-  std::size_t faces = 0;       // "f" lines OpenMesh will import
-  std::size_t degenerate = 0;  // "f" lines with fewer than 3 distinct vertices
-};
-
-ObjScan scan_obj(const std::filesystem::path& path, const std::string& source) {
-  std::ifstream in(path);
-  if (!in) fail(source, "cannot be opened for reading");
-  ObjScan scan;
-  std::size_t face_lines = 0;
-  std::string line;
-  std::vector<long long> ids;
-  while (std::getline(in, line)) {
-    const auto tok = tokens(line);
-    if (tok.empty() || tok[0].front() == '#') continue;
-    if (tok[0] == "v") {
-      // Vertex line: three finite coordinates (colours after them are ignored).
-      const std::size_t k = scan.vertices++;
-      if (tok.size() < 4)
-        fail(source, "vertex " + std::to_string(k + 1) + " has fewer than 3 coordinates");
-      for (int c = 1; c <= 3; ++c)
-        if (!finite_float(tok[c]))
-          fail(source, "vertex " + std::to_string(k + 1) + " has a coordinate that is not a finite number");
-    } else if (tok[0] == "f") {
-      // Face line: at least 3 vertex references "v", "v/t", "v//n" or "v/t/n".
-      const std::size_t k = face_lines++;
-      const std::string name = "face " + std::to_string(k + 1);
-      if (tok.size() < 4)
-        fail(source, name + " has " + std::to_string(tok.size() - 1) + " vertices; a face needs at least 3");
-      ids.clear();
-      for (std::size_t t = 1; t < tok.size(); ++t) {
-        const std::string ref(tok[t].substr(0, tok[t].find('/')));
-        char* end = nullptr;
-        long long v = std::strtoll(ref.c_str(), &end, 10);
-        if (ref.empty() || end != ref.c_str() + ref.size())
-          fail(source, name + ": cannot read vertex reference '" + std::string(tok[t]) + "'");
-        if (v < 0) v = static_cast<long long>(scan.vertices) + v + 1;  // relative reference
-        ids.push_back(v);
-      }
-      std::sort(ids.begin(), ids.end());
-      const auto distinct = std::unique(ids.begin(), ids.end()) - ids.begin();
-      (distinct >= 3 ? scan.faces : scan.degenerate) += 1;
-    }
-  }
-  return scan;
 }
 
 // ---------------------------------------------------------------------------
@@ -450,15 +325,11 @@ StlScan scan_stl(const std::filesystem::path& path, const std::string& source, c
 }  // namespace
 
 // ---------------------------------------------------------------------------
-// Reads one OBJ / STL / PLY / OFF file into a raw soup.
-RawMesh read_openmesh(const std::filesystem::path& path, const std::string& ext, const LoadOptions& options) {
+// Reads one STL file into a raw soup: our scan first (it decides ASCII or
+// binary, checks the size and every coordinate), then OpenMesh's reader.
+RawMesh read_stl(const std::filesystem::path& path, const LoadOptions& options) {
   const std::string source = path.string();
-
-  // Scan the formats whose errors OpenMesh hides before it reads them.
-  ObjScan obj;
-  StlScan stl;
-  if (ext == "obj") obj = scan_obj(path, source);
-  if (ext == "stl") stl = scan_stl(path, source, options);
+  const StlScan stl = scan_stl(path, source, options);
 
   RawMesh raw;
   SoupImporter importer(raw, options);
@@ -468,69 +339,22 @@ RawMesh read_openmesh(const std::filesystem::path& path, const std::string& ext,
     std::lock_guard<std::mutex> lock(openmesh_mutex());
     CaptureOpenMeshErrors capture;
     OMIO::Options opt = OMIO::Options::Default;
-    if (ext == "obj" || ext == "stl") {
-      // Read by name: OpenMesh finds the OBJ's material file and the STL type itself.
-      ok = OMIO::IOManager().read(path.string(), importer, opt);
-    } else {
-      // OFF and PLY: read from our own stream, with strict number parsing,
-      // watching its state to find where a truncated file ends.
-      std::ifstream in(path, std::ios::binary);
-      if (!in) fail(source, "cannot be opened for reading");
-      in.imbue(std::locale(in.getloc(), new StrictNumbers));
-      in.exceptions(std::ios::badbit);
-      importer.watch(&in);
-      try {
-        ok = OMIO::IOManager().read(in, ext, importer, opt);
-      } catch (const NumberError& e) {
-        fail(source, "cannot read '" + e.token + "' as a number");
-      }
-      if (ok && in.fail() && importer.failed == SoupImporter::Failed::none) {
-        // The stream failed after the last element: the file ended early.
-        importer.failed = importer.n_faces() > 0 ? SoupImporter::Failed::face : SoupImporter::Failed::vertex;
-        importer.failed_index = importer.n_faces() > 0 ? importer.n_faces() : importer.n_vertices();
-        importer.failed_at_eof = in.eof();
-      }
-    }
+    ok = OMIO::IOManager().read(path.string(), importer, opt);
     said = capture.text();
-  }
-
-  // Report what the reader or our watch found: a stream failure first (what
-  // the reader did after it is garbage), then the size limits.
-  if (importer.failed != SoupImporter::Failed::none) {
-    const bool vertex = importer.failed == SoupImporter::Failed::vertex;
-    const std::string what = (vertex ? "vertex " : "face ") + std::to_string(importer.failed_index);
-    if (importer.failed_at_eof) fail(source, "the file ends before " + what + " is complete");
-    fail(source, "cannot read " + what);
   }
   if (importer.too_many_vertices)
     fail(source, "has more than " + std::to_string(options.max_vertices) + " vertices (LoadOptions::max_vertices)");
   if (importer.too_many_triangles)
     fail(source, "has more than " + std::to_string(options.max_triangles) +
                      " triangles (LoadOptions::max_triangles)");
-  if (!ok) {
-    std::string upper = ext;
-    for (char& c : upper) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    fail(source, "OpenMesh cannot read it as " + upper + (said.empty() ? "" : " (" + said + ")"));
-  }
+  if (!ok) fail(source, "OpenMesh cannot read it as STL" + (said.empty() ? std::string() : " (" + said + ")"));
 
-  // Cross-check against the scans: every element they accepted must have arrived.
-  if (ext == "obj") {
-    raw.index_base = 1;
-    if (importer.n_vertices() != obj.vertices)
-      fail(source, "OpenMesh read " + std::to_string(importer.n_vertices()) + " of its " +
-                       std::to_string(obj.vertices) + " vertices");
-    if (importer.n_faces() != obj.faces)
-      fail(source, "OpenMesh read " + std::to_string(importer.n_faces()) + " of its " +
-                       std::to_string(obj.faces) + " faces");
-    raw.predropped_degenerate = obj.degenerate;
-  }
-  if (ext == "stl") {
-    if (importer.n_faces() != stl.facets - stl.degenerate)
-      fail(source, "OpenMesh read " + std::to_string(importer.n_faces()) + " of its " +
-                       std::to_string(stl.facets - stl.degenerate) + " non-degenerate facets");
-    raw.predropped_degenerate = stl.degenerate;
-    raw.premerged_vertices = 3 * stl.facets - raw.vertices.size();
-  }
+  // Cross-check against the scan: every facet it accepted must have arrived.
+  if (importer.n_faces() != stl.facets - stl.degenerate)
+    fail(source, "OpenMesh read " + std::to_string(importer.n_faces()) + " of its " +
+                     std::to_string(stl.facets - stl.degenerate) + " non-degenerate facets");
+  raw.predropped_degenerate = stl.degenerate;
+  raw.premerged_vertices = 3 * stl.facets - raw.vertices.size();
   return raw;
 }
 

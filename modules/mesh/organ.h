@@ -44,8 +44,17 @@ std::filesystem::path data_dir();
 /// data_dir() / "default_organ.ply".
 std::filesystem::path default_organ_path();
 
+/// Smallest and largest organ, m (largest extent of the bounding box after the unit).
+inline constexpr double kMinOrganSize = 5e-3;
+inline constexpr double kMaxOrganSize = 1.0;
+
 /// Loads, cleans (largest component only) and scales a mesh file. Throws
-/// MeshError naming the file.
+/// MeshError naming the file, and when the organ is not kMinOrganSize ..
+/// kMaxOrganSize across: "<file>: the organ is 138 m across with the unit m;
+/// an organ is 5 mm to 1 m across: with the unit mm it is 13.8 cm" (or ", and
+/// no unit (m, cm or mm) makes it so"). Open boundaries and non-manifold
+/// edges are named in Organ::note ("not a closed surface: 1 open boundary
+/// (12 boundary edges, the first at (x, y, z) mm)...").
 Organ load_organ(const std::filesystem::path& path, MeshUnit unit = MeshUnit::Auto);
 /// The bundled default organ (metres); generated with make_organ()
 /// when the file is missing (said in Organ::note).

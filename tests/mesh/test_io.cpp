@@ -12,6 +12,9 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
+
+#include <sys/stat.h>
 
 namespace palpa::mesh {
 namespace {
@@ -116,7 +119,7 @@ std::vector<BadInput> bad_inputs() {
        "vertex 3 has a coordinate that is not a finite number"},
       {"obj inf", "inf.obj", "v 0 0 0\nv 1 0 inf\nv 0 1 0\nf 1 2 3\n",
        "vertex 2 has a coordinate that is not a finite number"},
-      {"obj overflow", "big.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n",
+      {"obj overflow", "big.obj", "v 0 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n",
        "vertex 2 has a coordinate that is not a finite number"},
       {"obj short vertex", "shortv.obj", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", "vertex 2 has fewer than 3 coordinates"},
       {"off nan", "nan.off", "OFF\n3 1 0\n0 0 0\n1 0 0\nnan 1 0\n3 0 1 2\n",
@@ -174,8 +177,7 @@ std::vector<BadInput> bad_inputs() {
        "cannot read 'two' as a number"},
       {"ply ends early", "short.ply", std::string(kPlyHeader) + "0 0 0\n1 0 0\n0 1 0\n",
        "the file ends before face 0 is complete"},
-      {"ply bad header", "bad.ply", "not a ply file\n",
-       "OpenMesh cannot read it as PLY ([PLYReader] : Unable to parse header)"},
+      {"ply bad header", "bad.ply", "not a ply file\n", "is not a PLY file (its first line is not 'ply')"},
       {"stl neither", "short.stl", short_stl,
        "is neither ASCII STL (no 'solid' at the start) nor binary STL (the header announces 4 triangles, "
        "which take 284 bytes, but the file has 274)"},
@@ -203,6 +205,70 @@ std::vector<BadInput> bad_inputs() {
        "has more than 2 vertices (LoadOptions::max_vertices)", [](LoadOptions& o) { o.max_vertices = 2; }},
       {"too many trian vertices", "big.trian", "3\n0 0 0\n1 0 0\n0 1 0\n1\n0 1 2\n",
        "has more than 2 vertices (LoadOptions::max_vertices)", [](LoadOptions& o) { o.max_vertices = 2; }},
+      // Hardening (issue 12): counts that would cost memory, refused before allocating.
+      {"empty off", "empty.off", "", "has no triangles"},
+      {"off header only", "header.off", "OFF\n", "the file ends before its vertex and face counts"},
+      {"off absurd counts", "absurd.off", "OFF\n4000000000 4000000000 0\n",
+       "has more than 20000000 vertices (LoadOptions::max_vertices)"},
+      {"off counts beyond the file", "short_counts.off", "OFF\n19000000 1 0\n0 0 0\n",
+       "the file ends before vertex 1 is complete"},
+      {"off billion-vertex face", "huge_face.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n1000000000 0 1 2\n",
+       "face 0 has 1000000000 vertices, more than the limit of 256 (LoadOptions::max_face_vertices)"},
+      {"off face short of its count", "short_face.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n",
+       "face 0 lists 3 of its 4 vertex indices"},
+      {"off binary", "binary.off", "OFF BINARY\n", "is a binary OFF file, which Palpa does not read; save it as ASCII OFF or PLY"},
+      {"obj huge face", "huge_face.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf" + [] { std::string f; for (int i = 0; i < 300; ++i) f += " 1"; return f; }() + "\n",
+       "face 1 has 300 vertices, more than the limit of 256 (LoadOptions::max_face_vertices)"},
+      {"ply absurd vertex count", "absurd.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\n"
+       "property float z\nend_header\n",
+       "has more than 20000000 vertices (LoadOptions::max_vertices)"},
+      {"ply count beyond the file", "short_counts.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 1000\nproperty float x\nproperty float y\n"
+       "property float z\nend_header\n" + std::string(24, '\0'),
+       "the header announces 1000 'vertex' elements, but only 24 bytes follow it"},
+      {"ply billion-vertex face", "huge_face.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+       "property float z\nelement face 1\nproperty list int int vertex_indices\nend_header\n" + std::string(36, '\0') +
+           le32(1000000000) + le32(0) + le32(1) + le32(2),
+       "face 0 has 1000000000 vertices, more than the limit of 256 (LoadOptions::max_face_vertices)"},
+      // A float index list: 1e30 was cast to an integer (undefined behaviour).
+      {"ply float index", "float_index.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+       "element face 1\nproperty list uchar float vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1e30\n",
+       "face 0 has the vertex index 1e+30, which is not a whole number"},
+      {"trian absurd count", "absurd.trian", "19999999\n0 0 0\n", "the file ends before vertex 1"},
+      // Legacy VTK cells whose counts disagree with the data (VTK's reader crashed or read outside the cell).
+      {"vtk cell count beyond its block", "cell_over.vtk",
+       "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n9 0 1 2\n",
+       "its POLYGONS cell 0 has 9 vertices, but only 3 values of its block of 4 are left"},
+      {"vtk cells short of the block", "cell_under.vtk",
+       "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 1 6\n3 0 1 2 0 0\n",
+       "its POLYGONS block holds 4 values for its 1 cells, but its header says 6"},
+      {"vtk block ends before a cell", "cell_missing.vtk",
+       "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 2 4\n3 0 1 2\n",
+       "its POLYGONS block of 4 values ends before cell 1"},
+      {"vtk negative cell count", "cell_negative.vtk",
+       "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n-3 0 1 2\n",
+       "its POLYGONS cell 0 has -3 vertices"},
+      {"vtk huge cell", "cell_huge.vtk",
+       "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n1000000000 0 1 2\n",
+       "face 0 has 1000000000 vertices, more than the limit of 256 (LoadOptions::max_face_vertices)"},
+      {"vtk 5.1 offsets out of order", "offsets.vtk",
+       "# vtk DataFile Version 5.1\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 2 3\n"
+       "OFFSETS vtktypeint64\n0 5\nCONNECTIVITY vtktypeint64\n0 1 2\n",
+       "its POLYGONS offsets must rise from 0 to 3, but offset 1 is 5"},
+      {"vtk absurd points", "absurd_points.vtk",
+       "# vtk DataFile Version 3.0\nt\nBINARY\nDATASET POLYDATA\nPOINTS 19000000 float\n",
+       "the file ends inside its POINTS block"},
+      // Finite but absurd coordinates, and specks.
+      {"trian 1e300", "huge.trian", "3\n0 0 0\n1e300 0 0\n0 1 0\n1\n0 1 2\n",
+       "vertex 1 has the coordinate 1e+300, beyond the limit of 1e+06 file units (LoadOptions::max_coordinate)"},
+      {"vtk 1e30", "huge.vtk",
+       "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n0 0 0 1e30 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 2\n",
+       "vertex 1 has the coordinate 1e+30, beyond the limit of 1e+06 file units (LoadOptions::max_coordinate)"},
+      {"obj 1e-30 speck", "speck.obj", "v 0 0 0\nv 1e-30 0 0\nv 0 1e-30 0\nf 1 2 3\n",
+       "is 1e-30 m across, less than the smallest size of 1e-06 m (LoadOptions::min_extent_m)"},
       // Options.
       {"bad unit", "unit.obj", tet_obj, "LoadOptions::unit_m must be a positive length in metres",
        [](LoadOptions& o) { o.unit_m = -1; }},
@@ -227,6 +293,69 @@ TEST(LoadErrors, EachBadInputGetsItsExactMessage) {
   }
 }
 
+void expect_tetrahedron(const SurfaceMesh& m, double scale = 1.0);
+
+// Only regular files are read: a FIFO would hang, /dev/zero would fill memory.
+TEST(LoadErrors, NonRegularFilesAreRefusedBeforeReading) {
+  const fs::path dir = test::temp_dir("mesh_io_special");
+  const fs::path fifo = dir / "pipe.obj", zero = dir / "zero.off";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  fs::create_symlink("/dev/zero", zero);
+  for (const auto& [path, kind] : {std::pair{fifo, "a FIFO"}, std::pair{zero, "a character device"}}) {
+    try {
+      load_mesh(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const MeshError& e) {
+      EXPECT_EQ(std::string(e.what()), path.string() + ": is not a regular file (" + kind + ")");
+    }
+  }
+}
+
+TEST(LoadErrors, FileSizeLimitIsCheckedBeforeReading) {
+  const fs::path path = test::temp_dir("mesh_io_size") / "tet.obj";
+  write_file(path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  LoadOptions o;
+  o.max_file_bytes = 10;
+  try {
+    load_mesh(path, o);
+    ADD_FAILURE();
+  } catch (const MeshError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path.string() + ": is 32 bytes, more than the limit of 10 bytes (LoadOptions::max_file_bytes)");
+  }
+}
+
+// An OBJ's mtllib is never followed: pointing it at a FIFO or /dev/zero changes nothing.
+TEST(Load, ObjMtllibIsIgnored) {
+  const fs::path dir = test::temp_dir("mesh_io_mtllib");
+  ASSERT_EQ(::mkfifo((dir / "hang.mtl").c_str(), 0600), 0);
+  write_file(dir / "tet.obj",
+             "mtllib hang.mtl\nmtllib /dev/zero\nmtllib ../../../../dev/zero\nusemtl x\n"
+             "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  expect_tetrahedron(load_mesh(dir / "tet.obj"));
+}
+
+// Binary PLY big-endian and COFF with colours read like the others.
+TEST(Load, PlyBigEndianAndColouredOff) {
+  const fs::path dir = test::temp_dir("mesh_io_variants");
+  std::string ply = "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                    "property float z\nproperty uchar red\nelement face 4\nproperty list uchar uint vertex_indices\n"
+                    "property list uchar float texcoord\nend_header\n";
+  std::string off = "COFF\n# comment\n4 4 6\n";
+  for (const auto& v : kTet) {
+    ply += be_float(v[0]) + be_float(v[1]) + be_float(v[2]) + std::string(1, '\x7f');
+    off += std::to_string(v[0]) + " " + std::to_string(v[1]) + " " + std::to_string(v[2]) + " 255 0 0 255\n";
+  }
+  for (const auto& f : kTetFaces) {
+    ply += std::string(1, '\3') + be32(f[0]) + be32(f[1]) + be32(f[2]) + std::string(1, '\1') + be_float(0.5f);
+    off += "3 " + std::to_string(f[0]) + " " + std::to_string(f[1]) + " " + std::to_string(f[2]) + " 0.5 0.5 0.5\n";
+  }
+  write_file(dir / "be.ply", ply);
+  write_file(dir / "c.off", off);
+  expect_tetrahedron(load_mesh(dir / "be.ply"));
+  expect_tetrahedron(load_mesh(dir / "c.off"));
+}
+
 TEST(LoadErrors, FromPolygonsNamesTheSource) {
   try {
     from_polygons({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)}, {{0, 1, 3}}, {}, "probe scan");
@@ -244,7 +373,7 @@ TEST(LoadErrors, FromPolygonsNamesTheSource) {
 
 // ---------------------------------------------------------------------------
 // Good input in every format gives the same closed, outward tetrahedron.
-void expect_tetrahedron(const SurfaceMesh& m, double scale = 1.0) {
+void expect_tetrahedron(const SurfaceMesh& m, double scale) {
   const MeshFacts f = analyse(m);
   EXPECT_EQ(f.vertices, 4u);
   EXPECT_EQ(f.triangles, 4u);

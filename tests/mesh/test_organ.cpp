@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace palpa::mesh {
@@ -54,6 +55,64 @@ TEST(Organ, MissingFileErrorNamesIt) {
   } catch (const MeshError& e) {
     EXPECT_EQ(std::string(e.what()).rfind(path.string(), 0), 0u) << e.what();
   }
+}
+
+// An organ is 5 mm to 1 m across: a forgotten unit is refused with the one that fits.
+TEST(Organ, SizesThatCannotBeAnOrganAreRefusedWithTheUnitThatFits) {
+  const auto dir = palpa::test::temp_dir("organ_sizes");
+  auto tet = [&](const char* name, double size) {
+    const auto path = dir / name;
+    std::ofstream(path) << "v 0 0 0\nv " << size << " 0 0\nv 0 " << size << " 0\nv 0 0 " << size
+                        << "\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    return path;
+  };
+  struct Case {
+    const char* name;
+    double size;
+    MeshUnit unit;
+    std::string expected;  // after "<path>: "
+  };
+  const Case cases[] = {
+      {"heart_mm.obj", 138, MeshUnit::Metre,
+       "the organ is 138 m across with the unit m; an organ is 5 mm to 1 m across: with the unit mm it is 13.8 cm"},
+      {"metres_as_mm.obj", 0.3, MeshUnit::Millimetre,
+       "the organ is 0.3 mm across with the unit mm; an organ is 5 mm to 1 m across: with the unit m it is 30 cm"},
+      {"huge.obj", 50000, MeshUnit::Auto,
+       "the organ is 50 m across with the unit mm (the best guess); an organ is 5 mm to 1 m across, and no unit "
+       "(m, cm or mm) makes it so"},
+      {"speck.obj", 1e-5, MeshUnit::Auto,
+       "the organ is 1e-05 m across with the unit m (the best guess); an organ is 5 mm to 1 m across, and no unit "
+       "(m, cm or mm) makes it so"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const auto path = tet(c.name, c.size);
+    try {
+      load_organ(path, c.unit);
+      ADD_FAILURE() << "no error";
+    } catch (const MeshError& e) {
+      EXPECT_EQ(std::string(e.what()), path.string() + ": " + c.expected);
+    }
+  }
+  // The limits themselves are organs.
+  EXPECT_NO_THROW(load_organ(tet("small.obj", 5.0), MeshUnit::Millimetre));
+  EXPECT_NO_THROW(load_organ(tet("large.obj", 1.0), MeshUnit::Metre));
+}
+
+// Open boundaries and non-manifold edges are named in the load summary.
+TEST(Organ, OpenAndNonManifoldSurfacesAreNamedInTheNote) {
+  const auto dir = palpa::test::temp_dir("organ_topology");
+  // A closed tetrahedron has no note; without one face it has one open boundary.
+  std::ofstream(dir / "closed.obj") << "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  std::ofstream(dir / "open.obj") << "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n";
+  // Three triangles on the edge 1-2.
+  std::ofstream(dir / "fan.obj") << "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 -0.1 0\nv 0 0 0.1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n";
+  EXPECT_EQ(load_organ(dir / "closed.obj", MeshUnit::Metre).note, "");
+  EXPECT_EQ(load_organ(dir / "open.obj", MeshUnit::Metre).note,
+            "not a closed surface: 1 open boundary (3 boundary edges, the first at (50.0, 50.0, 0.0) mm)");
+  EXPECT_EQ(load_organ(dir / "fan.obj", MeshUnit::Metre).note,
+            "not a closed surface: 1 open boundary (6 boundary edges, the first at (0.0, 50.0, 0.0) mm) and 1 "
+            "non-manifold edge (at (50.0, 0.0, 0.0) mm, shared by more than two triangles)");
 }
 
 // The bundled scenario organs load in metres, closed and outward as stored,

@@ -259,7 +259,7 @@ TEST(IgtlPlugin, SurvivesMalformedMessagesAndFiltersByDeviceName) {
   ASSERT_TRUE(wait_for([&] { return d.read(s) && (s.status & PALPA_STATUS_VALID); }));
   EXPECT_NEAR(s.position[0], 0.007, 1e-7);
   EXPECT_EQ(s.sequence, 1u);  // exactly one accepted pose
-  EXPECT_EQ(d.message(), "igtl: received a malformed TRANSFORM message (1 so far)");
+  EXPECT_EQ(d.message(), "igtl: refused a TRANSFORM message: its CRC does not match its body (1 bad so far)");
 }
 
 TEST(IgtlPlugin, ServerModeAcceptsAPeerOnLoopback) {
@@ -276,6 +276,40 @@ TEST(IgtlPlugin, ServerModeAcceptsAPeerOnLoopback) {
   ASSERT_TRUE(wait_for([&] { return d.read(s) && (s.status & PALPA_STATUS_VALID); }));
   EXPECT_NEAR(s.position[0], 0.05, 1e-7);
   EXPECT_NEAR(s.position[2], 0.2, 1e-7);
+}
+
+// One idle peer that sends half a header no longer locks the real tracker out.
+TEST(IgtlPlugin, AnIdlePeerIsReplacedByTheNextOneAfterTheTimeout) {
+  devices::Device d = make("mode=server;host=127.0.0.1;port=0;unit=m;peer_timeout=0.2");
+  const std::string msg = d.message();
+  const int port = std::stoi(msg.substr(std::string("igtl: listening on 127.0.0.1:").size()));
+  Peer idle, tracker;
+  ASSERT_TRUE(idle.connect_loopback(port));
+  const std::uint8_t half[20] = {0, 1, 'T', 'R', 'A', 'N', 'S'};
+  idle.send_bytes(half, sizeof half);
+  ASSERT_TRUE(wait_for([&] { return d.message().find("connected") != std::string::npos; }));
+  ASSERT_TRUE(tracker.connect_loopback(port));
+  ASSERT_TRUE(wait_for([&] { return d.message().find("replaced a peer idle for") != std::string::npos; }))
+      << d.message();
+  auto m = transform("Probe", 0.05, 0, 0, 0);
+  tracker.send(m.GetPointer());
+  PalpaDeviceSample s;
+  ASSERT_TRUE(wait_for([&] { return d.read(s) && (s.status & PALPA_STATUS_VALID); }));
+  EXPECT_NEAR(s.position[0], 0.05, 1e-7);
+}
+
+// Listening on every address is allowed when asked for, and said with a warning.
+TEST(IgtlPlugin, ListeningOnAllAddressesCarriesAWarning) {
+  devices::Device d = make("mode=server;host=0.0.0.0;port=0");
+  const std::string msg = d.message();
+  const std::string warning =
+      " (warning: listening on all addresses, so any computer that reaches this one can send poses)";
+  ASSERT_EQ(msg.rfind("igtl: listening on 0.0.0.0:", 0), 0u) << msg;
+  EXPECT_EQ(msg.substr(msg.size() - warning.size()), warning);
+  // The default is the loopback address, with no warning.
+  devices::Device local = make("mode=server;port=0");
+  EXPECT_EQ(local.message().rfind("igtl: listening on 127.0.0.1:", 0), 0u);
+  EXPECT_EQ(local.message().find("warning"), std::string::npos);
 }
 
 TEST(IgtlPlugin, OptionErrors) {

@@ -105,5 +105,22 @@ TEST(ScriptedPlugin, BadTrajectoryIsReportedWithFileAndLine) {
   }
 }
 
+// The plugin refuses /dev/zero (it used to read it without bound) and positions outside its workspace.
+TEST(ScriptedPlugin, RefusesDevZeroAndPositionsOutsideTheWorkspace) {
+  try {
+    devices::PluginLoader({PALPA_PLUGIN_DIR}).load("scripted").create("file=/dev/zero");
+    FAIL();
+  } catch (const devices::DeviceError& e) {
+    EXPECT_EQ(std::string(e.what()), "scripted: trajectory file '/dev/zero' is not a regular file (a character device)");
+  }
+  const std::string file = write_trajectory("far", "t,x,y,z,buttons\n0,0,0,0,0\n1,0,0.3,0,0\n");
+  try {
+    devices::PluginLoader({PALPA_PLUGIN_DIR}).load("scripted").create("file=" + file + ";workspace=0.2");
+    FAIL();
+  } catch (const devices::DeviceError& e) {
+    EXPECT_EQ(std::string(e.what()), "scripted: " + file + ":3: y 0.3 m is outside the workspace (|y| <= 0.2 m)");
+  }
+}
+
 }  // namespace
 }  // namespace palpa

@@ -12,6 +12,7 @@
 #include <linux/hidraw.h>
 #include <sys/ioctl.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -31,7 +32,7 @@ const char* kHidSys = "/sys/devices/pci0000:00/0000:00:14.0/usb1/1-3/1-3:1.0/000
 // What the kernel's hidraw driver answers, from the fixture's sysfs data.
 struct HidrawAnswers {
   std::vector<std::uint8_t> descriptor;
-  int ioctls = 0;
+  std::atomic<int> ioctls{0};  // counted on umockdev's worker thread, read by the test (TSan)
 };
 
 gboolean on_hidraw_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer user) {
@@ -104,7 +105,7 @@ TEST_F(SpaceMouseEmulated, ScriptedReportsMoveTheProbeAndUnplugLatchesAFault) {
       devices::PluginLoader({PALPA_PLUGIN_DIR}).load("spacemouse").create("speed=0.1;deadzone=0.05;workspace=0.2");
   d.start();  // finds the emulated device by enumeration
   EXPECT_EQ(d.message(), std::string("spacemouse: running on ") + kHidraw);
-  EXPECT_GT(answers_.ioctls, 0);  // hidapi asked for the report descriptor
+  EXPECT_GT(answers_.ioctls.load(), 0);  // hidapi asked for the report descriptor
 
   // Follow the script (about 1.07 s), reading like the haptic loop does.
   PalpaDeviceSample s{};

@@ -7,6 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <utility>
+
+#include <sys/stat.h>
 
 namespace palpa::plugins {
 namespace {
@@ -85,8 +88,52 @@ TEST(Trajectory, EveryMistakeNamesFileAndLine) {
       {"t,x,y,z,buttons\n0,0,0,0,-1\n", "traj.csv:2: buttons '-1' is not an integer in 0 .. 4294967295"},
       {"t,x,y,z,buttons\n0,0,0,0,4294967296\n",
        "traj.csv:2: buttons '4294967296' is not an integer in 0 .. 4294967295"},
+      // Hardening (issue 12): the workspace, NUL bytes, absurd times.
+      {"t,x,y,z,buttons\n0,1.7e308,0,0,0\n1,-1.7e308,0,0,0\n",
+       "traj.csv:2: x 1.7e+308 m is outside the workspace (|x| <= 10 m)"},
+      {"t,x,y,z,buttons\n0,0,0,-11,0\n", "traj.csv:2: z -11 m is outside the workspace (|z| <= 10 m)"},
+      {"t,x,y,z,buttons\n2e9,0,0,0,0\n", "traj.csv:2: time 2e+09 s is beyond the limit of 1e+09 s"},
   };
   for (const auto& c : cases) EXPECT_EQ(message_of(c.text), c.message) << c.text;
+}
+
+// A NUL byte inside a field is refused (strtod stopped at it and took the field as ended).
+TEST(Trajectory, NulBytesAreRefusedWithTheirLineAndColumn) {
+  const std::string text = std::string("t,x,y,z,buttons\n0,0,0,0,0\n1,0.5") + '\0' + "7,0,0,0\n";
+  EXPECT_EQ(message_of(text), "traj.csv:3: contains a NUL byte (column 6)");
+}
+
+// A denormal is a finite number; the workspace can be stated.
+TEST(Trajectory, DenormalsAreFiniteAndTheWorkspaceIsTheCallers) {
+  const Trajectory t = Trajectory::parse("t,x,y,z,buttons\n0,4.9e-324,0,1e-310,0\n", "traj.csv");
+  EXPECT_EQ(t.samples()[0].position[0], 4.9e-324);
+  EXPECT_EQ(t.samples()[0].position[2], 1e-310);
+  try {
+    Trajectory::parse("t,x,y,z,buttons\n0,0,0.5,0,0\n", "traj.csv", 0.25);
+    FAIL();
+  } catch (const TrajectoryError& e) {
+    EXPECT_STREQ(e.what(), "traj.csv:2: y 0.5 m is outside the workspace (|y| <= 0.25 m)");
+  }
+}
+
+// /dev/zero would fill memory and a FIFO would hang: only regular files are read.
+TEST(Trajectory, LoadRefusesWhatIsNotARegularFile) {
+  const auto dir = test::temp_dir("trajectory_special");
+  const auto fifo = dir / "pipe.csv";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::pair<std::string, std::string> cases[] = {
+      {"/dev/zero", "trajectory file '/dev/zero' is not a regular file (a character device)"},
+      {fifo.string(), "trajectory file '" + fifo.string() + "' is not a regular file (a FIFO)"},
+      {dir.string(), "trajectory file '" + dir.string() + "' is not a regular file (a directory)"},
+  };
+  for (const auto& [path, message] : cases) {
+    try {
+      Trajectory::load(path);
+      ADD_FAILURE() << path;
+    } catch (const TrajectoryError& e) {
+      EXPECT_EQ(std::string(e.what()), message);
+    }
+  }
 }
 
 TEST(Trajectory, LoadNamesAMissingFile) {

@@ -6,12 +6,16 @@
 // stale (the loop then sends zero force) and the force sent back is zero
 // while the input is stale or the loop's command has expired.
 //
-// Sockets are our own (so a server can bind to one address, e.g. loopback);
-// OpenIGTLink's library packs and unpacks the messages.
+// Sockets are our own (a server binds to 127.0.0.1 unless told otherwise, and
+// says so with a warning when it listens on all addresses, 0.0.0.0); incoming
+// messages are decoded by our own checked decoder (igtl_decoder.h: 64-bit body
+// sizes against a per-type maximum, refused header versions named, resynchro-
+// nisation after a bad header, orthonormal rotations, positions inside the
+// workspace); OpenIGTLink's library packs the SENSOR messages sent back.
 //
 // Options:
 //   mode=client        client: connect to host:port; server: listen on host:port
-//   host=127.0.0.1     peer address (client) or bind address (server)
+//   host=127.0.0.1     peer address (client) or bind address (server; 0.0.0.0 = all, with a warning)
 //   port=18944         TCP port (0 with mode=server: any free port, see the message)
 //   device=            accept poses only from this OpenIGTLink device name (empty: any)
 //   unit=mm            length unit of incoming positions: mm (OpenIGTLink convention) or m
@@ -19,17 +23,17 @@
 //   force_name=PalpaForce  device name of the SENSOR messages sent back
 //   send_rate=1000     most SENSOR messages per second, Hz
 //   max_force=10       N, the force limit declared to the host
+//   workspace=1        m, 0.001 .. 100: poses must satisfy |x|, |y|, |z| <= workspace (the spec's box)
+//   peer_timeout=2     s, 0.05 .. 3600 (server): a peer that completed no message for this long
+//                      is replaced by the next one that connects (one idle peer cannot lock out the tracker)
 
 #include "core/triple_buffer.h"
 #include "devices/plugin_support.h"
+#include "igtl_decoder.h"
 
-#include <Eigen/Geometry>
 #include <arpa/inet.h>
 #include <fcntl.h>
-#include <igtlMessageHeader.h>
-#include <igtlPositionMessage.h>
 #include <igtlSensorMessage.h>
-#include <igtlTransformMessage.h>
 #include <igtlUnit.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -38,6 +42,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdio>
 #include <cstring>
 #include <mutex>
 #include <thread>
@@ -46,14 +51,13 @@
 namespace {
 
 using namespace palpa::devices::plugin;
-
-constexpr std::size_t kHeaderSize = 58;          // OpenIGTLink header
-constexpr std::size_t kMaxBody = 1u << 20;       // larger bodies are refused
+namespace igtl_decoder = palpa::plugins::igtl;
 
 class IgtlDevice final : public DeviceImpl {
  public:
   explicit IgtlDevice(const Options& o) {
-    o.check_known({"mode", "host", "port", "device", "unit", "stale_after", "force_name", "send_rate", "max_force"});
+    o.check_known({"mode", "host", "port", "device", "unit", "stale_after", "force_name", "send_rate", "max_force",
+                   "workspace", "peer_timeout"});
     const std::string mode = o.get_string("mode", "client");
     if (mode != "client" && mode != "server")
       throw PluginError("igtl: option mode='" + mode + "' must be client or server");
@@ -73,6 +77,10 @@ class IgtlDevice final : public DeviceImpl {
       throw PluginError("igtl: option force_name must have 1 to 20 characters");
     send_period_ = 1.0 / o.get_double("send_rate", 1000.0, 1.0, 100000.0);
     max_force_ = o.get_double("max_force", 10.0, 0.01, 1e4);
+    workspace_ = o.get_double("workspace", 1.0, 1e-3, 100.0);
+    peer_timeout_ = o.get_double("peer_timeout", 2.0, 0.05, 3600.0);
+    if (server_ && host_ == "0.0.0.0")
+      warning_ = " (warning: listening on all addresses, so any computer that reaches this one can send poses)";
   }
   ~IgtlDevice() override { stop(); }
 
@@ -82,8 +90,8 @@ class IgtlDevice final : public DeviceImpl {
     s.position_dof = 6;
     s.force_dof = 3;
     for (int i = 0; i < 3; ++i) {
-      s.workspace_min[i] = -1.0;
-      s.workspace_max[i] = 1.0;
+      s.workspace_min[i] = -workspace_;
+      s.workspace_max[i] = workspace_;
     }
     s.max_force = max_force_;
     s.max_stiffness = 1e4;
@@ -162,7 +170,7 @@ class IgtlDevice final : public DeviceImpl {
 
   void set_state(const std::string& s) {
     std::lock_guard<std::mutex> lock(message_mutex_);
-    state_ = s;
+    state_ = s + warning_;
   }
 
   // Client: one connection attempt with a short timeout; -1 on failure.
@@ -226,13 +234,10 @@ class IgtlDevice final : public DeviceImpl {
   }
 
   // Publishes a pose (m, unit quaternion w x y z).
-  void publish(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  void publish(const igtl_decoder::Pose& pose) {
     PalpaDeviceSample s = empty_sample();
-    for (int i = 0; i < 3; ++i) s.position[i] = p[i];
-    s.orientation[0] = q.w();
-    s.orientation[1] = q.x();
-    s.orientation[2] = q.y();
-    s.orientation[3] = q.z();
+    for (int i = 0; i < 3; ++i) s.position[i] = pose.position[i];
+    for (int i = 0; i < 4; ++i) s.orientation[i] = pose.orientation[i];
     s.time = monotonic_now();
     s.sequence = ++sequence_;
     s.status = PALPA_STATUS_VALID;
@@ -241,56 +246,45 @@ class IgtlDevice final : public DeviceImpl {
     last_pose_time_ = s.time;
   }
 
-  // Handles one complete message; false when the peer sent garbage.
-  bool handle(igtl::MessageHeader* header, const std::vector<std::uint8_t>& body) {
-    const std::string type = header->GetDeviceType();
-    const std::string name = header->GetDeviceName();
-    if (!device_filter_.empty() && name != device_filter_) return true;
-    if (type == "TRANSFORM") {
-      igtl::TransformMessage::Pointer m = igtl::TransformMessage::New();
-      m->SetMessageHeader(header);
-      m->AllocatePack();
-      if (static_cast<std::size_t>(m->GetPackBodySize()) != body.size()) return false;
-      std::memcpy(m->GetPackBodyPointer(), body.data(), body.size());
-      if (!(m->Unpack(1) & igtl::MessageHeader::UNPACK_BODY)) return false;
-      igtl::Matrix4x4 t;
-      m->GetMatrix(t);
-      Eigen::Matrix3d r;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) r(i, j) = t[i][j];
-      const Eigen::Vector3d p(t[0][3] * unit_scale_, t[1][3] * unit_scale_, t[2][3] * unit_scale_);
-      if (!p.allFinite() || !r.allFinite()) return false;
-      Eigen::Quaterniond q(r);
-      q.normalize();
-      publish(p, q);
-      return true;
-    }
-    if (type == "POSITION") {
-      igtl::PositionMessage::Pointer m = igtl::PositionMessage::New();
-      m->SetMessageHeader(header);
-      m->AllocatePack();
-      if (static_cast<std::size_t>(m->GetPackBodySize()) != body.size()) return false;
-      std::memcpy(m->GetPackBodyPointer(), body.data(), body.size());
-      if (!(m->Unpack(1) & igtl::MessageHeader::UNPACK_BODY)) return false;
-      float pos[3], quat[4];
-      m->GetPosition(pos);
-      m->GetQuaternion(quat);  // ox, oy, oz, w
-      const Eigen::Vector3d p(pos[0] * unit_scale_, pos[1] * unit_scale_, pos[2] * unit_scale_);
-      Eigen::Quaterniond q(quat[3], quat[0], quat[1], quat[2]);
-      if (!p.allFinite() || !q.coeffs().allFinite()) return false;
-      if (q.norm() > 0) q.normalize(); else q = Eigen::Quaterniond::Identity();
-      publish(p, q);
-      return true;
-    }
-    return true;  // other message types are ignored
+  // A new decoder for a new peer (the counts of bad messages carry on).
+  igtl_decoder::DecoderOptions decoder_options() const {
+    igtl_decoder::DecoderOptions d;
+    d.unit_scale = unit_scale_;
+    d.device_filter = device_filter_;
+    d.workspace = workspace_;
+    return d;
   }
 
-  // Connection management, message parsing and force sending.
+  // Server: a peer waiting to connect while the current one has been idle
+  // (no complete message) for peer_timeout replaces it.
+  int replace_idle_peer(int fd, double now, double last_activity) {
+    if (!server_ || now - last_activity < peer_timeout_) return fd;
+    pollfd p{listen_fd_, POLLIN, 0};
+    if (poll(&p, 1, 0) != 1) return fd;
+    const int next = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+    if (next < 0) return fd;
+    ::close(fd);
+    ++replaced_peers_;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.3g", now - last_activity);
+    set_state("igtl: replaced a peer idle for " + std::string(buf) + " s (peer_timeout " + number(peer_timeout_) +
+              " s) by a new one on " + host_ + ":" + std::to_string(bound_port_));
+    return next;
+  }
+
+  static std::string number(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+  }
+
+  // Connection management, message decoding and force sending.
   void io_main() {
     int fd = -1;
-    std::vector<std::uint8_t> in;
-    double last_send = 0;
-    igtl::MessageHeader::Pointer header = igtl::MessageHeader::New();
+    igtl_decoder::Decoder decoder(decoder_options());
+    std::vector<igtl_decoder::Pose> poses;
+    double last_send = 0, last_activity = 0;
+    std::uint64_t reported_bad = 0, seen_messages = 0;
     while (!stop_.load(std::memory_order_relaxed)) {
       if (fd < 0) {
         fd = server_ ? try_accept() : try_connect();
@@ -300,42 +294,32 @@ class IgtlDevice final : public DeviceImpl {
         }
         int one = 1;
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-        in.clear();
+        decoder.reset();
+        last_activity = monotonic_now();
         set_state("igtl: connected to a peer on " + host_ + ":" + std::to_string(server_ ? bound_port_ : port_));
       }
 
-      // Receive what is there (wait at most 1 ms).
+      // Receive what is there (wait at most 1 ms) and decode every complete message.
       pollfd p{fd, POLLIN, 0};
       bool lost = false;
       if (poll(&p, 1, 1) == 1) {
         std::uint8_t buf[4096];
         const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-        if (n > 0)
-          in.insert(in.end(), buf, buf + n);
-        else if (n == 0 || (errno != EAGAIN && errno != EINTR))
+        if (n > 0) {
+          poses.clear();
+          decoder.feed(buf, static_cast<std::size_t>(n), poses);
+          for (const auto& pose : poses) publish(pose);
+        } else if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
           lost = true;
+        }
       }
-
-      // Complete messages: header, then body.
-      while (!lost && in.size() >= kHeaderSize) {
-        header->InitPack();
-        std::memcpy(header->GetPackPointer(), in.data(), kHeaderSize);
-        header->Unpack();
-        const auto body = static_cast<std::size_t>(header->GetBodySizeToRead());
-        if (body > kMaxBody) {
-          set_state("igtl: refused a message with a body of " + std::to_string(body) +
-                    " bytes; disconnected from the peer");
-          lost = true;
-          break;
-        }
-        if (in.size() < kHeaderSize + body) break;
-        const std::vector<std::uint8_t> payload(in.begin() + kHeaderSize, in.begin() + kHeaderSize + body);
-        in.erase(in.begin(), in.begin() + static_cast<std::ptrdiff_t>(kHeaderSize + body));
-        if (!handle(header.GetPointer(), payload)) {
-          ++bad_messages_;
-          set_state("igtl: received a malformed " + std::string(header->GetDeviceType()) + " message (" +
-                    std::to_string(bad_messages_) + " so far)");
-        }
+      if (decoder.messages() != seen_messages) {
+        seen_messages = decoder.messages();
+        last_activity = monotonic_now();
+      }
+      if (decoder.bad_messages() != reported_bad) {
+        reported_bad = decoder.bad_messages();
+        set_state("igtl: " + decoder.last_problem() + " (" + std::to_string(reported_bad) + " bad so far)");
       }
 
       // Send the force back, zero when the input is stale or the command expired.
@@ -355,6 +339,15 @@ class IgtlDevice final : public DeviceImpl {
         fd = -1;
         set_state(server_ ? "igtl: peer disconnected; listening on " + host_ + ":" + std::to_string(bound_port_)
                           : "igtl: peer disconnected; reconnecting to " + host_ + ":" + std::to_string(port_));
+        continue;
+      }
+      const int next = replace_idle_peer(fd, now, last_activity);
+      if (next != fd) {
+        fd = next;
+        int one = 1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        decoder.reset();
+        last_activity = now;
       }
     }
     if (fd >= 0) {
@@ -369,12 +362,14 @@ class IgtlDevice final : public DeviceImpl {
   int port_ = 18944, bound_port_ = 0;
   std::string device_filter_, force_name_;
   double unit_scale_ = 1e-3, stale_after_ = 0.1, send_period_ = 1e-3, max_force_ = 10;
+  double workspace_ = 1.0, peer_timeout_ = 2.0;
+  std::string warning_;  // said with every state (listening on all addresses)
   int listen_fd_ = -1;
   std::thread thread_;
   std::atomic<bool> stop_{false}, running_{false};
   palpa::TripleBuffer<PalpaForceCommand> commands_;
   palpa::TripleBuffer<PalpaDeviceSample> samples_;
-  std::uint64_t sequence_ = 0, poses_ = 0, bad_messages_ = 0;  // I/O thread only
+  std::uint64_t sequence_ = 0, poses_ = 0, replaced_peers_ = 0;  // I/O thread only
   double last_pose_time_ = 0;                                    // I/O thread only
   mutable std::mutex message_mutex_;
   std::string state_;

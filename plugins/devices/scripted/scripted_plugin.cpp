@@ -9,6 +9,8 @@
 //   time_scale=1     playback speed (2 = twice as fast)
 //   rate=1000        nominal sample rate reported in the spec, Hz
 //   max_force=10     N; the spec's maximum force (0: no force output)
+//   workspace=10     m, 0.001 .. 1000: half-size of the cube around the origin
+//                    every trajectory position must lie in (refused otherwise)
 
 #include "core/triple_buffer.h"
 #include "devices/plugin_support.h"
@@ -26,10 +28,11 @@ using palpa::plugins::Trajectory;
 class ScriptedDevice final : public DeviceImpl {
  public:
   explicit ScriptedDevice(const Options& o) {
-    o.check_known({"file", "loop", "time_scale", "rate", "max_force"});
+    o.check_known({"file", "loop", "time_scale", "rate", "max_force", "workspace"});
     if (!o.has("file")) throw PluginError("scripted: option file is missing (file=/path/to/trajectory.csv)");
+    const double workspace = o.get_double("workspace", palpa::plugins::kDefaultWorkspace, 1e-3, 1e3);
     try {
-      trajectory_ = Trajectory::load(o.get_string("file"));
+      trajectory_ = Trajectory::load(o.get_string("file"), workspace);
     } catch (const std::exception& e) {
       throw PluginError(std::string("scripted: ") + e.what());
     }
@@ -80,7 +83,10 @@ class ScriptedDevice final : public DeviceImpl {
     for (int k = 0; k < 3; ++k) s.position[k] = p[k];
     s.sequence = ++sequence_;
     s.time = now;
-    s.status = PALPA_STATUS_VALID;
+    // Valid only when every intermediate stayed finite (the workspace bound makes this hold).
+    s.status = std::isfinite(t) && std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])
+                   ? PALPA_STATUS_VALID
+                   : 0;
   }
 
   int write(const PalpaForceCommand& c) noexcept override {

@@ -1,5 +1,8 @@
 #include "trajectory.h"
 
+#include "core/input_file.h"
+
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -37,7 +40,7 @@ std::string format(double v) {
 
 }  // namespace
 
-Trajectory Trajectory::parse(const std::string& text, const std::string& source) {
+Trajectory Trajectory::parse(const std::string& text, const std::string& source, double workspace) {
   Trajectory tr;
   std::istringstream in(text);
   std::string raw;
@@ -46,16 +49,32 @@ Trajectory Trajectory::parse(const std::string& text, const std::string& source)
   auto fail = [&](const std::string& what) -> TrajectoryError {
     return TrajectoryError(source + ":" + std::to_string(line_no) + ": " + what);
   };
-  // A finite number, or a message naming the field and the text.
+  // A finite number, or a message naming the field and the text. (A denormal
+  // sets ERANGE but is finite; only overflow gives inf.)
   auto number = [&](const std::string& field, const std::string& s) {
     const char* str = s.c_str();
     char* end = nullptr;
-    errno = 0;
     const double v = std::strtod(str, &end);
-    if (s.empty() || end == str || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+    if (s.empty() || end == str || *end != '\0' || !std::isfinite(v))
       throw fail(field + " '" + s + "' is not a finite number");
     return v;
   };
+  // A coordinate inside the workspace (so that no difference or interpolation overflows).
+  auto coordinate = [&](const std::string& field, const std::string& s) {
+    const double v = number(field, s);
+    if (!(std::abs(v) <= workspace))
+      throw fail(field + " " + format(v) + " m is outside the workspace (|" + field + "| <= " + format(workspace) +
+                 " m)");
+    return v;
+  };
+
+  // No NUL byte anywhere (strtod would stop at one and take the field as ended).
+  if (const auto nul = text.find('\0'); nul != std::string::npos) {
+    line_no = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(nul), '\n'));
+    const auto line_start = text.rfind('\n', nul);
+    const std::size_t column = nul - (line_start == std::string::npos ? 0 : line_start + 1) + 1;
+    throw fail("contains a NUL byte (column " + std::to_string(column) + ")");
+  }
 
   while (std::getline(in, raw)) {
     ++line_no;
@@ -73,7 +92,7 @@ Trajectory Trajectory::parse(const std::string& text, const std::string& source)
       throw fail("expected 5 comma-separated values (t,x,y,z,buttons), got " + std::to_string(fields.size()));
     TrajectorySample s;
     s.t = number("time", fields[0]);
-    s.position = {number("x", fields[1]), number("y", fields[2]), number("z", fields[3])};
+    s.position = {coordinate("x", fields[1]), coordinate("y", fields[2]), coordinate("z", fields[3])};
     // Buttons: a non-negative integer that fits 32 bits.
     {
       const std::string& b = fields[4];
@@ -85,6 +104,7 @@ Trajectory Trajectory::parse(const std::string& text, const std::string& source)
       s.buttons = static_cast<std::uint32_t>(v);
     }
     if (s.t < 0) throw fail("time " + format(s.t) + " is negative");
+    if (s.t > kMaxTime) throw fail("time " + format(s.t) + " s is beyond the limit of " + format(kMaxTime) + " s");
     if (!tr.samples_.empty() && !(s.t > tr.samples_.back().t))
       throw fail("time " + format(s.t) + " is not after the previous time " + format(tr.samples_.back().t));
     tr.samples_.push_back(s);
@@ -94,12 +114,14 @@ Trajectory Trajectory::parse(const std::string& text, const std::string& source)
   return tr;
 }
 
-Trajectory Trajectory::load(const std::filesystem::path& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw TrajectoryError("cannot open trajectory file '" + path.string() + "'");
-  std::ostringstream s;
-  s << f.rdbuf();
-  return parse(s.str(), path.string());
+Trajectory Trajectory::load(const std::filesystem::path& path, double workspace) {
+  // Only a regular file within the limit (/dev/zero would fill memory, a FIFO hang).
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw TrajectoryError("cannot open trajectory file '" + path.string() + "'");
+  std::string bytes;
+  const std::string problem = read_regular_file(path, kMaxFileBytes, "the trajectory file limit", bytes);
+  if (!problem.empty()) throw TrajectoryError("trajectory file '" + path.string() + "' " + problem);
+  return parse(bytes, path.string(), workspace);
 }
 
 // Finds the segment [i, i+1] holding t (moving the cursor), interpolates.
