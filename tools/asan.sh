@@ -24,4 +24,14 @@ export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:verify_asan_link_order=0:det
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/fuzz/lsan.supp:print_suppressions=0"
 nice -n 10 cmake --build build-asan -j "$jobs"
-nice -n 10 ctest --test-dir build-asan --output-on-failure -j "$jobs" "$@"
+# Left out, with their reason: the resident-memory tests measure the
+# sanitizer's shadow memory and quarantine, not ours (they run in the normal
+# suite).
+rss='NoSurfaceConsumerKeepsMemoryFlat'
+# The GUI tests (label app_gui) run with leak detection off: Qt unloads its
+# platform and image plugins at exit, and the 112 bytes LeakSanitizer then
+# reports have no symbol and no Palpa frame to suppress them by. Every other
+# ASan and UBSan check stays on for them.
+nice -n 10 ctest --test-dir build-asan --output-on-failure -j "$jobs" -E "$rss" -LE '^app_gui$' "$@"
+ASAN_OPTIONS="$ASAN_OPTIONS:detect_leaks=0" \
+  nice -n 10 ctest --test-dir build-asan --output-on-failure -j "$jobs" -L '^app_gui$' "$@"
