@@ -421,13 +421,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     for (std::size_t k = 0; k < paths.ticks; ++k) {
       const double t = static_cast<double>(k) * kTickPeriod;
       for (int p = 0; p < probes; ++p) {
-        PalpaDeviceSample& smp = inputs[p].sample;
-        const Vec3 x = paths.at(k, p);
-        for (int a = 0; a < 3; ++a) smp.position[a] = x[a];
-        smp.orientation[0] = 1;
-        smp.status = PALPA_STATUS_VALID;
-        smp.sequence = k + 1;
-        smp.time = t;
+        inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
       }
       const auto a = Clock::now();
       const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs.data(), probes),

@@ -160,12 +160,7 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
       for (int k = 0; k < contacts; ++k) {
         const palpa::deform::Contact c = contact_at(*mesh, tree, k, contacts, ts);
         const Vec3 tip = c.point - c.depth * c.normal;
-        auto& smp = inputs[static_cast<std::size_t>(k)].sample;
-        smp.orientation[0] = 1;
-        for (int a = 0; a < 3; ++a) smp.position[a] = tip[a];
-        smp.status = PALPA_STATUS_VALID;
-        smp.sequence = tick + 1;
-        smp.time = ts;
+        inputs[static_cast<std::size_t>(k)].sample = palpa::haptics::position_sample(tip, tick + 1, ts);
       }
       session.step(ts, inputs, results);
       ++tick;

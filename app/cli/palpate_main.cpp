@@ -276,12 +276,7 @@ int main(int argc, char** argv) {
       const double d = o.depth * press - 0.001;  // starts 1 mm above the surface
       (void)dpress;
       const Vec3 p = s.center + s.circle_r * (std::cos(a) * s.u + std::sin(a) * s.v) - d * s.normal;
-      auto& sample = in[j].sample;
-      sample.orientation[0] = 1;
-      for (int k = 0; k < 3; ++k) sample.position[k] = p[k];
-      sample.status = PALPA_STATUS_VALID;
-      sample.sequence = static_cast<std::uint64_t>(n) + 1;
-      sample.time = t;
+      in[j].sample = palpa::haptics::position_sample(p, static_cast<std::uint64_t>(n) + 1, t);
     }
     // One session step: collision and force for every probe (eq. 4), then
     // the deformation step with their contacts.

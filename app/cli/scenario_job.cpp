@@ -223,12 +223,7 @@ int run_scripted(const ScenarioOptions& o, const scenario::Resolved& r) {
       const double press = std::min(1.0, t / 0.5) * 0.006;
       Vec3 p = m.positions[v] - press * m.normals[v].normalized();
       if (model->field) p = model->field->to_world(p, t);
-      auto& s = in[j].sample;
-      s.orientation[0] = 1;
-      for (int c = 0; c < 3; ++c) s.position[c] = p[c];
-      s.status = PALPA_STATUS_VALID;
-      s.sequence = static_cast<std::uint64_t>(n) + 1;
-      s.time = t;
+      in[j].sample = haptics::position_sample(p, static_cast<std::uint64_t>(n) + 1, t);
     }
     if (recorder)
       record::record_step(*recorder, session, t, in, out);

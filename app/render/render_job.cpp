@@ -280,16 +280,11 @@ RenderJobResult run_render_job(const RenderJobOptions& o, std::ostream& log) {
   for (long s = 0; s < steps; ++s) {
     const double t = static_cast<double>(s) * o.dt;
     for (std::size_t k = 0; k < specs.size(); ++k) {
-      PalpaDeviceSample& smp = inputs[k].sample;
-      smp.orientation[0] = 1;
       // With breathing the tip rides on the organ (the press is relative to it).
       const Vec3 tip = field ? field->to_world(tips[k], t) : tips[k];
-      for (int a = 0; a < 3; ++a) smp.position[a] = tip[a];
-      smp.status = PALPA_STATUS_VALID;
-      smp.sequence = static_cast<std::uint64_t>(s) + 1;
-      smp.time = static_cast<double>(s) * o.dt;
+      inputs[k].sample = haptics::position_sample(tip, static_cast<std::uint64_t>(s) + 1, t);
     }
-    session.step(static_cast<double>(s) * o.dt, inputs, outputs);
+    session.step(t, inputs, outputs);
   }
   deform::DeformableSurface& surface = session.surface();
 

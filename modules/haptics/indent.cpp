@@ -42,12 +42,7 @@ std::vector<IndentSample> indent(std::shared_ptr<const SessionModel> model, cons
     const double t = static_cast<double>(n) * dt;
     Vec3 p = site.point - depth * site.normal;
     if (field) p = field->to_world(p, t);
-    auto& s = in[0].sample;
-    s.orientation[0] = 1;
-    for (int k = 0; k < 3; ++k) s.position[k] = p[k];
-    s.status = PALPA_STATUS_VALID;
-    s.sequence = ++n;
-    s.time = t;
+    in[0].sample = position_sample(p, ++n, t);
     session.step(t, in, out);
   };
 

@@ -102,6 +102,20 @@ struct LoopCommand {
   }
 };
 
+/// A valid reading of a probe that reports its tip position only: tip `p`
+/// (m), orientation (1, 0, 0, 0), no buttons, `sequence` and time `t` (s).
+/// What scripted presses (palpa-palpate, the render job, the calibration
+/// press, the benchmarks) feed a Session.
+inline PalpaDeviceSample position_sample(const Vec3& p, std::uint64_t sequence, double t) {
+  PalpaDeviceSample s{};
+  s.sequence = sequence;
+  s.time = t;
+  for (int k = 0; k < 3; ++k) s.position[k] = p[k];
+  s.orientation[0] = 1;
+  s.status = PALPA_STATUS_VALID;
+  return s;
+}
+
 /// What one tick read from one device.
 struct ProbeTickInput {
   PalpaDeviceSample sample{};
