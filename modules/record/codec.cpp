@@ -91,6 +91,17 @@ bool is_same_as_position(std::span<const std::uint8_t> blob) {
   return blob.size() == 6 && blob[0] == static_cast<std::uint8_t>(Codec::SameAsPosition);
 }
 
+namespace {
+// zlib's deflate cannot pack more than 1032 bytes into one, plus a few bytes of stream framing.
+constexpr std::uint64_t kMaxInflateRatio = 1032;
+constexpr std::uint64_t kInflateSlack = 64;
+}  // namespace
+
+bool column_can_hold(std::size_t blob_bytes, std::size_t count, std::size_t width) {
+  if (width == 0 || count > (std::uint64_t(1) << 40) / width) return false;
+  return std::uint64_t(count) * width <= kMaxInflateRatio * blob_bytes + kInflateSlack;
+}
+
 void decode_column(std::span<const std::uint8_t> blob, std::size_t expected_count, std::size_t width, void* out) {
   if (blob.size() < 6) throw DecodeError("column of " + std::to_string(blob.size()) + " bytes has no header");
   const auto codec = static_cast<Codec>(blob[0]);
@@ -125,7 +136,9 @@ std::vector<std::uint8_t> pack(const std::vector<std::uint8_t>& bytes, std::uint
 std::vector<std::uint8_t> unpack(std::span<const std::uint8_t> blob, std::uint32_t magic, const char* what) {
   if (blob.size() < 8 || get_u32(blob.data()) != magic) throw DecodeError(std::string(what) + " has no valid header");
   const std::uint32_t n = get_u32(blob.data() + 4);
-  if (n > (1u << 31)) throw DecodeError(std::string(what) + " claims " + std::to_string(n) + " bytes");
+  if (n > (1u << 31) || n > kMaxInflateRatio * (blob.size() - 8) + kInflateSlack)
+    throw DecodeError(std::string(what) + " claims " + std::to_string(n) + " bytes from " + std::to_string(blob.size() - 8) +
+                      " deflated bytes");
   std::vector<std::uint8_t> out(n);
   inflate_bytes(blob.data() + 8, blob.size() - 8, out.data(), n, what);
   return out;

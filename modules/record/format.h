@@ -21,6 +21,14 @@ inline constexpr std::int32_t kApplicationId = 0x50616C70;
 /// PRAGMA user_version: the schema this build writes and reads.
 inline constexpr int kSchemaVersion = 1;
 
+/// Limits a reader enforces before it allocates (docs/RECORDING.md,
+/// "Reading"): the largest session file, bytes (64 GiB, about 90 hours of
+/// live ticks at 1 kHz with 3 probes), and the largest recorded mesh, the
+/// same as the mesh loader's (mesh::LoadOptions).
+inline constexpr std::uint64_t kMaxSessionBytes = std::uint64_t(64) << 30;
+inline constexpr std::uint64_t kMaxSessionVertices = 20'000'000;
+inline constexpr std::uint64_t kMaxSessionTriangles = 40'000'000;
+
 /// A session file that cannot be opened, read or written: what() is
 /// "<file>: <fault>", e.g. "s.palpa: not a Palpa session (application_id
 /// 0x00000000, expected 0x50616c70)".

@@ -35,6 +35,10 @@ std::vector<std::uint8_t> encode_column(const void* data, std::size_t count, std
 std::vector<std::uint8_t> same_as_position_column(std::size_t count, std::size_t width);
 /// True when `blob` is such a column.
 bool is_same_as_position(std::span<const std::uint8_t> blob);
+/// Whether a column BLOB of `blob_bytes` bytes can hold `count` elements of
+/// `width` bytes at all (raw, or deflated at zlib's largest ratio, 1032:1),
+/// so a reader never sizes a buffer from a count its BLOB cannot fill.
+bool column_can_hold(std::size_t blob_bytes, std::size_t count, std::size_t width);
 /// Decodes a column BLOB of `expected_count` elements of `width` bytes into `out`
 /// (count * width bytes). Throws DecodeError naming what is wrong.
 void decode_column(std::span<const std::uint8_t> blob, std::size_t expected_count, std::size_t width, void* out);

@@ -160,12 +160,17 @@ struct SessionFile::Impl {
   template <class T>
   void column(const Stmt& s, int c, std::size_t count, std::vector<T>& out, const char* name,
               const std::vector<T>* position = nullptr) const {
-    out.resize(count);
-    if (position && is_same_as_position(s.blob(c))) {
+    const auto blob = s.blob(c);
+    if (position && is_same_as_position(blob)) {
       if (position->size() != count) damaged(std::string(name) + ": does not match the position column");
       out = *position;
       return;
     }
+    // Nothing is sized from a count the BLOB cannot hold (deflate packs at most 1032:1).
+    if (!column_can_hold(blob.size(), count, sizeof(T)))
+      damaged(std::string(name) + ": " + std::to_string(count) + " elements cannot come from a BLOB of " +
+              std::to_string(blob.size()) + " bytes");
+    out.resize(count);
     try {
       decode_column(s.blob(c), count, sizeof(T), out.data());
     } catch (const DecodeError& e) {
@@ -197,6 +202,9 @@ void check_bytes(const std::filesystem::path& file) {
   }
   if (!S_ISREG(st.st_mode)) throw RecordError(file, "not a regular file");
   if (st.st_size == 0) throw RecordError(file, "empty file (not a Palpa session)");
+  if (static_cast<std::uint64_t>(st.st_size) > kMaxSessionBytes)
+    throw RecordError(file, "is " + std::to_string(st.st_size) + " bytes, more than the limit of " +
+                                std::to_string(kMaxSessionBytes) + " (64 GiB, record::kMaxSessionBytes)");
   unsigned char h[100] = {};
   std::ifstream in(file, std::ios::binary);
   if (!in) throw RecordError(file, std::string("cannot read (") + std::strerror(errno) + ")");
@@ -294,8 +302,15 @@ SessionFile SessionFile::open(const std::filesystem::path& file, bool mark) {
   {
     Stmt s(db, "SELECT vertex_count, triangle_count, sha256 FROM mesh WHERE id = 0");
     if (!s.step()) throw RecordError(file, "damaged: the mesh is missing");
-    m.vertices = static_cast<std::size_t>(s.integer(0));
-    m.triangles = static_cast<std::size_t>(s.integer(1));
+    const std::int64_t nv = s.integer(0), nt = s.integer(1);
+    if (nv < 3 || static_cast<std::uint64_t>(nv) > kMaxSessionVertices)
+      m.damaged("the mesh claims " + std::to_string(nv) + " vertices; a session's mesh has 3 .. " +
+                std::to_string(kMaxSessionVertices));
+    if (nt < 1 || static_cast<std::uint64_t>(nt) > kMaxSessionTriangles)
+      m.damaged("the mesh claims " + std::to_string(nt) + " triangles; a session's mesh has 1 .. " +
+                std::to_string(kMaxSessionTriangles));
+    m.vertices = static_cast<std::size_t>(nv);
+    m.triangles = static_cast<std::size_t>(nt);
     h.mesh_sha256 = s.text(2);
   }
 

@@ -43,6 +43,11 @@ namespace {
 
 std::string region_what(const Region& r) { return "region '" + r.name + "'"; }
 
+// Limits of the files a region reads (docs/TISSUE.md, "Region maps").
+constexpr std::uintmax_t kMaxRegionFileBytes = std::uintmax_t(256) << 20;  // bytes
+constexpr std::uint64_t kMaxMapPixels = std::uint64_t(8192) * 8192;         // pixels of a PNG map
+constexpr std::size_t kMaxRegionPoints = 20'000'000;                         // points of a PLY array file
+
 [[noreturn]] void refuse(const std::string& what, const std::string& fault) {
   throw std::runtime_error(what + ": " + fault);
 }
@@ -84,8 +89,31 @@ void check_file(const std::string& what, const std::filesystem::path& file, cons
   if (!std::filesystem::exists(st)) refuse(what, "cannot read " + std::string(kind) + " '" + file.string() + "': no such file");
   if (!std::filesystem::is_regular_file(st))
     refuse(what, "cannot read " + std::string(kind) + " '" + file.string() + "': not a regular file");
-  if (std::filesystem::file_size(file, ec) == 0 && !ec)
+  const std::uintmax_t size = std::filesystem::file_size(file, ec);
+  if (size == 0 && !ec)
     refuse(what, "cannot read " + std::string(kind) + " '" + file.string() + "': the file is empty");
+  if (!ec && size > kMaxRegionFileBytes)
+    refuse(what, "cannot read " + std::string(kind) + " '" + file.string() + "': it is " + std::to_string(size) +
+                     " bytes, more than the limit of " + std::to_string(kMaxRegionFileBytes) + " (256 MiB)");
+}
+
+// A PNG's width and height from its IHDR chunk, read before any decoding so
+// that an image too large to hold is refused before it is allocated.
+void check_png_size(const std::string& what, const std::filesystem::path& file) {
+  unsigned char h[24] = {};
+  std::ifstream in(file, std::ios::binary);
+  in.read(reinterpret_cast<char*>(h), sizeof h);
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const std::string name = "'" + file.string() + "'";
+  if (in.gcount() < 24 || std::memcmp(h, kSignature, 8) != 0 || std::memcmp(h + 12, "IHDR", 4) != 0)
+    refuse(what, "cannot read image " + name + ": not a PNG file (maps are 8- or 16-bit PNG)");
+  auto be32 = [](const unsigned char* p) {
+    return (std::uint64_t{p[0]} << 24) | (std::uint64_t{p[1]} << 16) | (std::uint64_t{p[2]} << 8) | p[3];
+  };
+  const std::uint64_t w = be32(h + 16), hgt = be32(h + 20);
+  if (w * hgt > kMaxMapPixels)
+    refuse(what, "image " + name + " is " + std::to_string(w) + " x " + std::to_string(hgt) +
+                     " pixels, more than the limit of " + std::to_string(kMaxMapPixels) + " (8192 x 8192)");
 }
 
 // ---------------------------------------------------------------------------
@@ -263,6 +291,18 @@ class PlyReader {
     }
     if (v.properties[static_cast<std::size_t>(ia)].list) fail("vertex property '" + array + "' is a list, expected a scalar");
     if (v.count == 0) fail("no vertices");
+    // Nothing is sized from a count the file cannot hold: every property of a
+    // vertex takes at least one byte (ascii) or its size (binary).
+    if (v.count > kMaxRegionPoints)
+      fail("the header announces " + std::to_string(v.count) + " vertices, more than the limit of " +
+           std::to_string(kMaxRegionPoints));
+    std::size_t row_bytes = 0;
+    for (const auto& p : v.properties)
+      row_bytes += format_ == Format::Ascii ? 1 : ply_size(p.list ? p.count_type : p.type);
+    const std::size_t left = bytes_.size() - pos_;
+    if (v.count > left / std::max<std::size_t>(row_bytes, 1))
+      fail("the header announces " + std::to_string(v.count) + " vertices, but only " + std::to_string(left) +
+           " bytes follow it");
     for (std::size_t k = 0; k < e; ++k) skip_element(elements_[k]);
     PointArray out;
     out.points.resize(v.count);
@@ -409,6 +449,7 @@ class ValueImage {
  public:
   ValueImage(const std::filesystem::path& file, const std::string& what) {
     check_file(what, file, "image");
+    check_png_size(what, file);
     const cv::Mat raw = cv::imread(file.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
     const std::string name = "'" + file.string() + "'";
     if (raw.empty()) refuse(what, "cannot read image " + name + ": not an image OpenCV can decode, or empty");

@@ -142,6 +142,38 @@ TEST(SessionFile, DamagedColumn) {
                                std::to_string(3 * count) + ")");
 }
 
+// Counts in the file are limits-checked before anything is sized from them.
+TEST(SessionFile, MeshCountsBeyondTheLimits) {
+  const auto f = finished_session("mesh-count.palpa");
+  sql(f, "UPDATE mesh SET vertex_count = 1099511627776 WHERE id = 0");
+  EXPECT_EQ(open_error(f), f.string() + ": damaged (the mesh claims 1099511627776 vertices; a session's mesh has 3 .. 20000000)");
+  sql(f, "UPDATE mesh SET vertex_count = 2 WHERE id = 0");
+  EXPECT_EQ(open_error(f), f.string() + ": damaged (the mesh claims 2 vertices; a session's mesh has 3 .. 20000000)");
+  const auto g = finished_session("mesh-triangles.palpa");
+  sql(g, "UPDATE mesh SET triangle_count = -5 WHERE id = 0");
+  EXPECT_EQ(open_error(g), g.string() + ": damaged (the mesh claims -5 triangles; a session's mesh has 1 .. 40000000)");
+}
+
+TEST(SessionFile, AColumnCannotClaimMoreThanItsBlobHolds) {
+  // 19 999 999 vertices are within the limit, but the 10-byte BLOB could not inflate to 480 MB.
+  const auto f = finished_session("mesh-claim.palpa");
+  sql(f, "UPDATE mesh SET vertex_count = 19999999, positions = x'010800000000aabbccdd' WHERE id = 0");
+  EXPECT_EQ(open_error(f),
+            f.string() + ": damaged (mesh positions: 59999997 elements cannot come from a BLOB of 10 bytes)");
+}
+
+TEST(SessionFile, OverTheSizeLimitIsNamedBeforeReading) {
+  // A sparse file of 64 GiB + 1 byte takes no disk space.
+  const auto f = test::temp_dir() / "huge.palpa";
+  std::filesystem::remove(f);
+  { std::ofstream(f) << "SQLite format 3"; }
+  std::error_code ec;
+  std::filesystem::resize_file(f, kMaxSessionBytes + 1, ec);
+  if (ec) GTEST_SKIP() << "this file system cannot hold a sparse 64 GiB file: " << ec.message();
+  EXPECT_EQ(open_error(f), f.string() + ": is 68719476737 bytes, more than the limit of 68719476736 (64 GiB, record::kMaxSessionBytes)");
+  std::filesystem::remove(f);
+}
+
 // A writer that dies without finishing leaves a file that opens as interrupted.
 TEST(SessionFile, DeadWriterMeansInterrupted) {
   const auto f = test::temp_dir() / "dead-writer.palpa";

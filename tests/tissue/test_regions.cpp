@@ -710,6 +710,21 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
   {
     std::ofstream(dir / "empty.png");
     std::ofstream(dir / "text.png") << "not a png\n";
+    // A PNG signature and IHDR chunk claiming 100000 x 100000 pixels (nothing after it).
+    const unsigned char ihdr[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
+                                  0, 1, 0x86, 0xa0, 0, 1, 0x86, 0xa0, 8, 0, 0, 0, 0};
+    std::ofstream(dir / "huge.png", std::ios::binary).write(reinterpret_cast<const char*>(ihdr), sizeof ihdr);
+    // 4 x 4 pixels, then no image data: passes the size check, OpenCV refuses it.
+    unsigned char small[sizeof ihdr];
+    std::memcpy(small, ihdr, sizeof ihdr);
+    small[16] = small[17] = small[18] = 0, small[19] = 4;
+    small[20] = small[21] = small[22] = 0, small[23] = 4;
+    std::ofstream(dir / "broken.png", std::ios::binary).write(reinterpret_cast<const char*>(small), sizeof small);
+    std::ofstream(dir / "billion.ply") << "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\n"
+                                          "property float x\nproperty float y\nproperty float z\nproperty float s\nend_header\n";
+    std::ofstream(dir / "claims.ply") << "ply\nformat binary_little_endian 1.0\nelement vertex 1000\n"
+                                         "property float x\nproperty float y\nproperty float z\nproperty float s\nend_header\n"
+                                         "0123456789abcdef";
     std::ofstream(dir / "organ.xyz") << "1 2 3\n";
     std::ofstream(dir / "bad.vtp") << "not xml\n";
     std::ofstream(dir / "bad.ply") << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n";
@@ -782,7 +797,15 @@ TEST(Regions, ErrorMessagesNameTheRegionAndTheFault) {
       {image(dir / "folder.png"), "region 'picture': cannot read image '" + d + "/folder.png': not a regular file"},
       {image(dir / "empty.png"), "region 'picture': cannot read image '" + d + "/empty.png': the file is empty"},
       {image(dir / "text.png"),
-       "region 'picture': cannot read image '" + d + "/text.png': not an image OpenCV can decode, or empty"},
+       "region 'picture': cannot read image '" + d + "/text.png': not a PNG file (maps are 8- or 16-bit PNG)"},
+      {image(dir / "huge.png"),
+       "region 'picture': image '" + d + "/huge.png' is 100000 x 100000 pixels, more than the limit of 67108864 (8192 x 8192)"},
+      {image(dir / "broken.png"),
+       "region 'picture': cannot read image '" + d + "/broken.png': not an image OpenCV can decode, or empty"},
+      {array(dir / "billion.ply", "s"),
+       "region 'paint': PLY '" + d + "/billion.ply': the header announces 1000000000 vertices, more than the limit of 20000000"},
+      {array(dir / "claims.ply", "s"),
+       "region 'paint': PLY '" + d + "/claims.ply': the header announces 1000 vertices, but only 16 bytes follow it"},
       {array(dir / "missing.vtp", "s"), "region 'paint': cannot read vertex array '" + d + "/missing.vtp': no such file"},
       {array(dir / "bad.vtp", "s"), "region 'paint': cannot read VTP '" + d + "/bad.vtp': not a VTK XML PolyData file"},
       {array(dir / "bad.ply", "s"), "region 'paint': PLY '" + d + "/bad.ply': the header has no end_header line"},
