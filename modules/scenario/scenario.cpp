@@ -942,6 +942,9 @@ Scenario parse_scenario(const std::string& text, const fs::path& file) {
     auto [line, col] = line_column(text, e.byte == 0 ? 0 : e.byte - 1);
     r.fail("", "invalid JSON at line " + std::to_string(line) + ", column " + std::to_string(col) + ": " +
                    parse_reason(e.what()));
+  } catch (const Json::exception& e) {
+    // A number beyond a double's range (nlohmann's out_of_range 406) has no position.
+    r.fail("", "invalid JSON: " + parse_reason(e.what()) + " (a number beyond the range of a double)");
   }
   r.object(doc, "",
            {"version", "units", "title", "description", "organ", "probe", "tissues", "base_tissue", "regions",

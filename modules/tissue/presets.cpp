@@ -39,7 +39,8 @@ std::vector<Preset> load_presets(const std::filesystem::path& file) {
   Json doc;
   try {
     doc = Json::parse(buf.str());
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
+    // parse_error, or out_of_range for a number beyond a double's range.
     fail(file, "", std::string("invalid JSON: ") + e.what());
   }
   // Keys of an object must be among `allowed`.

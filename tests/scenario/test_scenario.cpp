@@ -213,6 +213,32 @@ TEST(ScenarioParse, InvalidJsonGivesLineAndColumn) {
   }
 }
 
+// Found by fuzz_scenario: a number beyond a double's range made the JSON
+// library throw its out_of_range exception, which escaped as a crash.
+TEST(ScenarioParse, ANumberBeyondADoubleIsInvalidJson) {
+  const std::string text = "{\n \"version\": 11111111111E1111111\n}\n";
+  try {
+    parse_scenario(text, "case.json");
+    FAIL() << "no error";
+  } catch (const ScenarioError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "case.json: invalid JSON: number overflow parsing '11111111111E1111111' (a number beyond the range of a double)");
+  }
+}
+
+// The input fuzz_scenario crashed on, as it found it (fuzz/regressions/scenario/).
+TEST(ScenarioParse, TheFuzzersNumberOverflowInputGetsItsMessage) {
+  const auto file = std::filesystem::path(PALPA_SOURCE_DIR) / "fuzz/regressions/scenario/number-overflow.json";
+  try {
+    load_scenario(file);
+    FAIL() << "no error";
+  } catch (const ScenarioError& e) {
+    EXPECT_EQ(std::string(e.what()), file.string() +
+                                         ": invalid JSON: number overflow parsing '11111111111E1111111' (a number "
+                                         "beyond the range of a double)");
+  }
+}
+
 TEST(ScenarioParse, DuplicateKeysAreRefusedWithTheirPointer) {
   // The parser would keep one of the two silently; the second one is named.
   std::string text = valid_scenario().dump(2);
