@@ -11,6 +11,7 @@
 
 #include "app/gui/force_plot.h"
 #include "app/gui/main_window.h"
+#include "haptics/safety.h"
 #include "common/test_support.h"
 #include "mesh/generate.h"
 #include "mesh/io.h"
@@ -196,12 +197,26 @@ TEST_F(MainWindowTest, AScriptedDeviceProbeDrivesAContact) {
   ASSERT_NE(probe, nullptr);
   EXPECT_EQ(probe->device, "scripted");
   // The device drives the probe into the organ: contact, force along the normal, a dent drawn.
+  // Under ThreadSanitizer the loop runs several times slower than its
+  // deadlines, and the safety chain rightly holds the force at zero while the
+  // loop or the model is late: there the test accepts a held force only when
+  // the flags say the watchdog held it.
+#if defined(__SANITIZE_THREAD__)
+  constexpr bool kSlowBuild = true;
+#else
+  constexpr bool kSlowBuild = false;
+#endif
+  const std::uint32_t late = haptics::kSafetyLoopLate | haptics::kSafetyModelLate;
+  bool held_late = false;
   EXPECT_TRUE(wait_until([&] {
     probe = w->workbench().probe(id);
-    return probe->output.in_contact && probe->output.force.dot(n0) > 0.05 &&
-           w->surface_view()->max_displacement() > 1e-4;
-  })) << "force " << probe->output.force.transpose();
-  EXPECT_NE(w->findChild<QLabel*>("forceReadout")->text(), "0.00 N");
+    const bool pressed = probe->output.in_contact && probe->output.depth > 0.003 &&
+                         w->surface_view()->max_displacement() > 1e-4;
+    held_late = kSlowBuild && (probe->output.flags & late) != 0 && probe->output.force.isZero();
+    return pressed && (probe->output.force.dot(n0) > 0.05 || held_late);
+  })) << "force " << probe->output.force.transpose() << ", depth " << probe->output.depth << " m, in contact "
+      << probe->output.in_contact << ", safety flags 0x" << std::hex << probe->output.flags;
+  if (!held_late) EXPECT_NE(w->findChild<QLabel*>("forceReadout")->text(), "0.00 N");
   EXPECT_TRUE(w->device_status_text().startsWith("scripted")) << w->device_status_text().toStdString();
   // Removing it releases the contact.
   w->remove_selected_probe();
