@@ -205,6 +205,7 @@ struct OffscreenWindow::Impl {
   std::string renderer, version;
   vtkSmartPointer<vtkGenericOpenGLRenderWindow> window;
   vtkNew<vtkCallbackCommand> callback;
+  vtkNew<vtkUnsignedCharArray> rgba;  // read_rgba()'s buffer, reused
 
   // OSMesa state: the context and the colour buffer it renders into.
   OSMesaContext osmesa = nullptr;
@@ -412,6 +413,19 @@ Image OffscreenWindow::capture() const {
     for (int x = 0; x < m.width; ++x) std::memcpy(img.at(x, y), row + 4 * x, 3);
   }
   return img;
+}
+
+void OffscreenWindow::finish() {
+  impl_->window->MakeCurrent();
+  glFinish();
+}
+
+std::span<const std::uint8_t> OffscreenWindow::read_rgba() {
+  Impl& m = *impl_;
+  m.window->MakeCurrent();
+  // VTK's read of its render framebuffer; the array keeps its memory when the size is unchanged.
+  m.window->GetRGBACharPixelData(0, 0, m.width - 1, m.height - 1, 0, m.rgba, 0);
+  return {m.rgba->GetPointer(0), static_cast<std::size_t>(m.width) * m.height * 4};
 }
 
 float OffscreenWindow::depth_at(int x, int y) const {
