@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <pthread.h>
 #include <sys/resource.h>
 
 #include <chrono>
@@ -355,9 +356,13 @@ int run(const Options& o) {
   std::unique_ptr<assess::Coverage> coverage;
   std::unique_ptr<app::CoverageMap> coverage_map;
   const int map_side = std::min(o.width, o.height) / 3;
-  // The levels need the thickness the coverage computes; the map needs every tick.
-  if (with_coverage || with_levels) coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
-  if (with_coverage) coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
+  // The levels need the thickness the coverage computes; the map needs every
+  // tick. Made by the re-simulation stage when it starts (its rays through
+  // the organ then overlap the rendering stage's first frame).
+  auto make_coverage = [&] {
+    if (with_coverage || with_levels) coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
+    if (with_coverage) coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
+  };
   std::vector<assess::Level> drawn_levels;  // the coverage the last map was drawn from
   std::shared_ptr<const cv::Mat> map_image;
   std::vector<std::uint32_t> episode(probe_count, 0);
@@ -465,8 +470,8 @@ int run(const Options& o) {
       scene.window().finish();
     }
     Timer tm(read_stage);
-    const std::span<const std::uint8_t> rgba = scene.window().read_rgba();
-    b.rgba.assign(rgba.begin(), rgba.end());
+    b.rgba.resize(std::size_t{4} * o.width * o.height);
+    scene.window().read_rgba(b.rgba);
     b.packet = &p;
   };
 
@@ -559,6 +564,7 @@ int run(const Options& o) {
 
   if (!o.pipeline) {
     Timer tm(sim_stage);
+    make_coverage();
     app::replay_session(s, replay_from, to_tick, each, check);
   } else {
     // Three threads: re-simulation ahead of rendering (this thread: the GL
@@ -578,8 +584,10 @@ int run(const Options& o) {
       to_encode.close();
     };
     std::thread simulate([&] {
+      pthread_setname_np(pthread_self(), "replay-sim");
       try {
         Timer tm(sim_stage);
+        make_coverage();
         app::replay_session(s, replay_from, to_tick, each, check);
       } catch (const Cancelled&) {
       } catch (...) {
@@ -588,6 +596,7 @@ int run(const Options& o) {
       to_render.close();
     });
     std::thread encoding([&] {
+      pthread_setname_np(pthread_self(), "replay-encode");
       try {
         FrameBuffer* b = nullptr;
         for (;;) {

@@ -26,6 +26,8 @@ VTK_MODULE_INIT(vtkRenderingOpenGL2);
 
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace palpa::render {
@@ -205,7 +207,7 @@ struct OffscreenWindow::Impl {
   std::string renderer, version;
   vtkSmartPointer<vtkGenericOpenGLRenderWindow> window;
   vtkNew<vtkCallbackCommand> callback;
-  vtkNew<vtkUnsignedCharArray> rgba;  // read_rgba()'s buffer, reused
+  vtkNew<vtkUnsignedCharArray> rgba;  // read_rgba(): lent the caller's buffer
 
   // OSMesa state: the context and the colour buffer it renders into.
   OSMesaContext osmesa = nullptr;
@@ -420,12 +422,20 @@ void OffscreenWindow::finish() {
   glFinish();
 }
 
-std::span<const std::uint8_t> OffscreenWindow::read_rgba() {
+void OffscreenWindow::read_rgba(std::span<std::uint8_t> out) {
   Impl& m = *impl_;
+  const std::size_t size = static_cast<std::size_t>(m.width) * m.height * 4;
+  if (out.size() != size)
+    throw std::invalid_argument("OffscreenWindow::read_rgba: " + std::to_string(out.size()) + " bytes given, " +
+                                std::to_string(size) + " needed");
   m.window->MakeCurrent();
-  // VTK's read of its render framebuffer; the array keeps its memory when the size is unchanged.
+  // VTK reads straight into an array of the right size; `out` lent to it
+  // (save = 1: VTK never frees it), so the pixels land there.
+  m.rgba->SetNumberOfComponents(4);
+  m.rgba->SetArray(out.data(), static_cast<vtkIdType>(size), 1);
   m.window->GetRGBACharPixelData(0, 0, m.width - 1, m.height - 1, 0, m.rgba, 0);
-  return {m.rgba->GetPointer(0), static_cast<std::size_t>(m.width) * m.height * 4};
+  if (m.rgba->GetPointer(0) != out.data()) std::memcpy(out.data(), m.rgba->GetPointer(0), size);
+  m.rgba->SetArray(nullptr, 0, 1);
 }
 
 float OffscreenWindow::depth_at(int x, int y) const {

@@ -103,10 +103,9 @@ class OffscreenWindow {
   /// time taken around render() alone is only its submission.
   void finish();
   /// Reads the last rendered frame as RGBA, bottom row first (OpenGL's
-  /// order, width x height x 4 bytes), into a buffer the window keeps and
-  /// reuses: no allocation per frame, no per-pixel copy. Valid until the
-  /// next call or the window's end.
-  std::span<const std::uint8_t> read_rgba();
+  /// order), into `out` (width x height x 4 bytes; std::invalid_argument
+  /// otherwise): no allocation, no per-pixel copy.
+  void read_rgba(std::span<std::uint8_t> out);
   /// Reads the depth buffer of the last frame at display pixel (x, y)
   /// (origin bottom-left), in [0, 1].
   float depth_at(int x, int y) const;
