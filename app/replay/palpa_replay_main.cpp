@@ -6,6 +6,7 @@
 #include "app/replay/overlay.h"
 #include "app/replay/session_job.h"
 #include "assess/coverage.h"
+#include "mesh/surface_mesh.h"
 #include "render/lesion_view.h"
 #include "render/offscreen.h"
 #include "render/probe_view.h"
@@ -16,21 +17,31 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <pthread.h>
+#include <sys/resource.h>
+
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <deque>
+#include <exception>
 #include <filesystem>
 #include <limits>
+#include <mutex>
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
 
 using namespace palpa;
 using Clock = std::chrono::steady_clock;
+const Clock::time_point process_start = Clock::now();
 
 struct Usage : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -48,7 +59,14 @@ const char* kUsage =
     "  --from S, --to S    the part of the session to render, s from its start (default: all)\n"
     "  --overlays LIST     any of force,levels,coverage,marks,timeline (default: all); 'none' for none\n"
     "  --reveal            draw the scenario's hidden and after-exam lesions too\n"
-    "  --gl auto|osmesa|egl  offscreen OpenGL (default auto)\n";
+    "  --gl auto|osmesa|egl  offscreen OpenGL (default auto)\n"
+    "  --pipeline on|off   re-simulate, render and encode on three threads at once (default on) or\n"
+    "                      one stage after the other on one thread; the frames are the same\n"
+    "  --cull on|off       skip the organ's back faces when it is closed and oriented outward (default\n"
+    "                      on; the same picture, less rasterising)\n"
+    "  --translucency blend|oit  translucent props (probe shafts, lesions, marks) by plain alpha\n"
+    "                      blending (default) or VTK's order-independent translucency (slower)\n"
+    "  --timings           print where the time went, per stage and per frame\n";
 
 struct Options {
   std::string session, video, frames;
@@ -58,6 +76,10 @@ struct Options {
   std::set<std::string> overlays{"force", "levels", "coverage", "marks", "timeline"};
   bool reveal = false;
   render::GlBackend gl = render::GlBackend::Auto;
+  bool pipeline = true;
+  bool cull = true;
+  bool timings = false;
+  bool plain_blending = true;
 };
 
 double number(const std::string& opt, const std::string& s) {
@@ -118,6 +140,16 @@ Options parse(int argc, char** argv) {
       o.reveal = true;
     } else if (a == "--gl") {
       o.gl = render::parse_gl_backend(value());
+    } else if (a == "--pipeline" || a == "--cull") {
+      const std::string v = value();
+      if (v != "on" && v != "off") throw Usage(a + ": expected on or off, got '" + v + "'");
+      (a == "--pipeline" ? o.pipeline : o.cull) = v == "on";
+    } else if (a == "--translucency") {
+      const std::string v = value();
+      if (v != "blend" && v != "oit") throw Usage("--translucency: expected blend or oit, got '" + v + "'");
+      o.plain_blending = v == "blend";
+    } else if (a == "--timings") {
+      o.timings = true;
     } else if (!a.empty() && a[0] == '-') {
       throw Usage("unknown option '" + a + "'");
     } else if (o.session.empty()) {
@@ -138,6 +170,91 @@ void progress(double fraction, std::size_t frames, double speed) {
                width - fill, "", 100 * fraction, frames, speed);
   std::fflush(stderr);
 }
+
+// Wall time spent in a stage (s), and waiting on its queues.
+struct Span {
+  double s = 0;
+};
+struct Stage : Span {
+  Span wait;
+};
+
+// Adds the time of its scope to a Span.
+class Timer {
+ public:
+  explicit Timer(Span& span) : span_(span), t0_(Clock::now()) {}
+  ~Timer() { span_.s += std::chrono::duration<double>(Clock::now() - t0_).count(); }
+  Timer(const Timer&) = delete;
+  Timer& operator=(const Timer&) = delete;
+
+ private:
+  Span& span_;
+  Clock::time_point t0_;
+};
+
+// A blocking queue between two stages; close() wakes everyone, and pop()
+// then answers false once it is empty.
+template <class T>
+class Queue {
+ public:
+  void push(T v) {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      q_.push_back(std::move(v));
+    }
+    cv_.notify_one();
+  }
+  bool pop(T& v) {
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [&] { return !q_.empty() || closed_; });
+    if (q_.empty()) return false;
+    v = std::move(q_.front());
+    q_.pop_front();
+    return true;
+  }
+  void close() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      closed_ = true;
+    }
+    cv_.notify_all();
+  }
+
+ private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::deque<T> q_;
+  bool closed_ = false;
+};
+
+// Thrown inside the re-simulation stage when another stage failed.
+struct Cancelled {};
+
+// What one frame needs from the re-simulation: the probe poses, the stream
+// entries that changed since the previous frame (never the whole state) and
+// the overlays' inputs. Recycled, so its vectors keep their memory.
+struct ProbePose {
+  Vec3 world, axis, force;
+  bool in_contact = false;
+};
+struct Packet {
+  std::size_t index = 0;  // frame number from 0
+  double now = 0;         // s from the session's start
+  Eigen::Matrix4d organ_to_world = Eigen::Matrix4d::Identity();
+  std::vector<ProbePose> probes;
+  std::vector<IndexRange> dirty;  // changed vertices, sorted, disjoint
+  std::vector<float> values;      // their (nx, ny, nz, h), 4 per vertex, range after range
+  std::vector<std::string> level_lines;
+  std::vector<std::deque<std::pair<double, double>>> force;
+  std::vector<std::pair<double, double>> over_limit;
+  std::shared_ptr<const cv::Mat> coverage_map;  // redrawn only when the coverage changed
+};
+
+// A rendered frame on its way to the encoder: RGBA, bottom row first.
+struct FrameBuffer {
+  std::vector<std::uint8_t> rgba;
+  Packet* packet = nullptr;
+};
 
 int run(const Options& o) {
   app::LoadedSession s = app::load_session(o.session);
@@ -166,18 +283,28 @@ int run(const Options& o) {
     return check.identical ? 0 : 3;
   }
 
-  // The scene: the organ, the probes, the lesions to show, the marks.
+  // The scene (on this thread, which owns the GL context): the organ, the
+  // probes, the lesions to show, the marks.
   const double to = std::min(o.to, duration);
   const std::uint64_t from_tick = static_cast<std::uint64_t>(std::floor(o.from * rate));
   const std::uint64_t to_tick = std::min<std::uint64_t>(h.ticks, static_cast<std::uint64_t>(std::floor(to * rate)) + 1);
   const bool with_coverage = o.overlays.count("coverage") > 0;
+  const bool with_levels = o.overlays.count("levels") > 0;
   render::OffscreenScene scene(o.width, o.height, o.gl);
-  std::printf("rendering %dx%d at %.0f fps with %s (%s)\n", o.width, o.height, o.fps,
+  scene.set_plain_blending(o.plain_blending);
+  std::printf("rendering %dx%d at %.0f fps with %s (%s)%s\n", o.width, o.height, o.fps,
               std::string(render::gl_backend_name(scene.window().backend())).c_str(),
-              scene.window().gl_renderer().c_str());
+              scene.window().gl_renderer().c_str(), o.pipeline ? "" : ", one stage at a time");
   const auto& mesh = s.model->mesh;
-  render::SurfaceView view(mesh);
+  render::SurfaceView view(mesh);  // its stream starts at rest (zeros), as a new session's surface
   scene.add(view.actor());
+  {
+    // A closed, outward surface seen from outside looks the same without its
+    // back faces (each lies behind a front face).
+    const mesh::MeshFacts facts = mesh::analyse(*mesh);
+    if (o.cull && facts.closed() && facts.consistently_oriented && facts.signed_volume > 0)
+      view.set_backface_culling(true);
+  }
   const tissue::TissueField* field = s.model->field.get();
   std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views;
   for (const auto& l : s.lesions) {
@@ -187,7 +314,7 @@ int run(const Options& o) {
   }
   const std::vector<record::EventRecord> events = s.file.events();
   std::vector<std::unique_ptr<render::EllipsoidView>> mark_views;
-  std::vector<double> mark_times;
+  std::vector<double> mark_times, mark_view_times;
   for (const auto& e : events)
     if (e.kind == record::EventKind::Mark) {
       mark_times.push_back(e.time - t0);
@@ -196,6 +323,7 @@ int run(const Options& o) {
       auto mv = std::make_unique<render::EllipsoidView>(haptics::to_vec(e.point), Vec3::Constant(r));
       mv->set_color(1.0, 0.85, 0.1, 0.9);
       mark_views.push_back(std::move(mv));
+      mark_view_times.push_back(e.time - t0);
     }
   std::vector<bool> mark_shown(mark_views.size(), false);
   Vec3 lo = mesh->positions[0], hi = lo;
@@ -204,15 +332,15 @@ int run(const Options& o) {
     hi = hi.cwiseMax(p);
   }
   const double size = (hi - lo).norm();
+  const std::size_t probe_count = h.setups.size();
   std::vector<std::unique_ptr<render::ProbeView>> probes;
-  for (std::size_t j = 0; j < h.setups.size(); ++j) {
+  for (std::size_t j = 0; j < probe_count; ++j) {
     auto pv = std::make_unique<render::ProbeView>(0.008 * size, 0.15 * size);
     pv->set_force_scale(0.25 * size / std::max(s.force_limit > 0 ? s.force_limit : 8.0, 1e-9));
     pv->add_to(scene.renderer());
     probes.push_back(std::move(pv));
   }
   const Vec3 view_dir = Vec3(0, -std::sin(0.61), std::cos(0.61)).normalized();
-  view.update_all(haptics::Session(s.model, s.initial, h.setups).surface().stream());
   scene.look_at(view.bounds(), view_dir, Vec3::UnitZ());
 
   // Outputs.
@@ -224,28 +352,168 @@ int run(const Options& o) {
   }
   if (!o.frames.empty()) std::filesystem::create_directories(o.frames);
 
-  // State the overlays follow.
+  // State the overlays follow (the re-simulation stage's own).
   std::unique_ptr<assess::Coverage> coverage;
   std::unique_ptr<app::CoverageMap> coverage_map;
   const int map_side = std::min(o.width, o.height) / 3;
-  // The levels need the thickness the coverage computes; the map needs every tick.
-  if (with_coverage || o.overlays.count("levels"))
-    coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
-  if (with_coverage) coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
-  std::vector<std::uint32_t> episode(h.setups.size(), 0);
-  std::vector<bool> was_in(h.setups.size(), false);
+  // The levels need the thickness the coverage computes; the map needs every
+  // tick. Made by the re-simulation stage when it starts (its rays through
+  // the organ then overlap the rendering stage's first frame).
+  auto make_coverage = [&] {
+    if (with_coverage || with_levels) coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
+    if (with_coverage) coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
+  };
+  std::vector<assess::Level> drawn_levels;  // the coverage the last map was drawn from
+  std::shared_ptr<const cv::Mat> map_image;
+  std::vector<std::uint32_t> episode(probe_count, 0);
+  std::vector<bool> was_in(probe_count, false);
   std::uint32_t next_episode = 0;
-  std::vector<std::deque<std::pair<double, double>>> force(h.setups.size());
+  std::vector<std::deque<std::pair<double, double>>> force(probe_count);
   std::vector<std::pair<double, double>> over_limit;
-  std::vector<Vec3> axis(h.setups.size(), Vec3::UnitZ());
+  std::vector<Vec3> axis(probe_count, Vec3::UnitZ());
   std::vector<double> snapshot_times;
   for (const auto& snap : s.file.snapshots()) snapshot_times.push_back(static_cast<double>(snap.tick) / rate);
+  const std::size_t n = mesh->vertex_count();
+  std::vector<float> sent(4 * n, 0.0f);  // the stream as the last packet left it (the view's starts at rest)
+
+  const std::size_t pool = o.pipeline ? 4 : 1;
+  std::vector<Packet> packets(pool);
+  std::vector<FrameBuffer> buffers(pool);
+  Stage sim_stage, pack_stage, upload_stage, render_stage, finish_stage, read_stage, convert_stage, overlay_stage,
+      encode_stage;
+  Queue<Packet*> free_packets, to_render;
+  Queue<FrameBuffer*> free_buffers, to_encode;
+  for (auto& p : packets) free_packets.push(&p);
+  for (auto& b : buffers) free_buffers.push(&b);
 
   std::size_t frames = 0;
   double next_frame = o.from;
-  double render_s = 0, overlay_s = 0, write_s = 0;  // wall time per part, s
   const auto start = Clock::now();
   const std::uint64_t replay_from = with_coverage ? 0 : from_tick;  // coverage needs every tick before the window
+  const int strip_h = std::max(80, o.height / 6), bar_h = 22;
+  cv::Mat frame(o.height, o.width, CV_8UC3);  // the encoding stage's frame, reused
+  std::vector<float> mirror(4 * n, 0.0f);     // the rendering stage's copy of the stream
+
+  // Stage 1 (re-simulation): a packet per frame with only what changed.
+  auto fill = [&](Packet& p, const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r,
+                  const deform::DeformableSurface& surface, double now) {
+    p.index = frames++;
+    p.now = now;
+    p.organ_to_world = field ? field->organ_to_world(t.time) : Eigen::Matrix4d::Identity();
+    p.probes.resize(r.size());
+    p.level_lines.clear();
+    for (std::size_t j = 0; j < r.size(); ++j) {
+      p.probes[j] = {haptics::to_vec(r[j].world), axis[j], haptics::to_vec(r[j].force_world), r[j].in_contact != 0};
+      if (with_levels) {
+        const double th = coverage->thickness()[coverage->nearest(haptics::to_vec(r[j].contact_point))];
+        const auto level = assess::level_of(r[j].depth, th, r[j].in_contact != 0);
+        p.level_lines.push_back(cv::format("probe %zu: %s, depth %.1f mm, %.2f N", j + 1, assess::level_name(level),
+                                           1e3 * (r[j].in_contact ? r[j].depth : 0.0),
+                                           haptics::to_vec(r[j].force_world).norm()));
+      }
+    }
+    // The stream entries that changed since the last packet, as ranges.
+    p.dirty.clear();
+    p.values.clear();
+    const std::span<const float> st = surface.stream();
+    for (std::size_t i = 0; i < n;) {
+      if (std::memcmp(&st[4 * i], &sent[4 * i], 4 * sizeof(float)) == 0) {
+        ++i;
+        continue;
+      }
+      const std::size_t b = i;
+      while (i < n && std::memcmp(&st[4 * i], &sent[4 * i], 4 * sizeof(float)) != 0) ++i;
+      std::memcpy(&sent[4 * b], &st[4 * b], 4 * sizeof(float) * (i - b));
+      p.values.insert(p.values.end(), st.begin() + 4 * b, st.begin() + 4 * i);
+      p.dirty.push_back({static_cast<Index>(b), static_cast<Index>(i)});
+    }
+    // The overlays' inputs.
+    p.force = force;
+    p.over_limit = over_limit;
+    if (coverage_map) {
+      if (!map_image || drawn_levels != coverage->highest()) {
+        map_image = std::make_shared<const cv::Mat>(coverage_map->draw(*coverage));
+        drawn_levels = coverage->highest();
+      }
+      p.coverage_map = map_image;
+    }
+  };
+
+  // Stage 2 (rendering, this thread): apply the packet, draw, read back.
+  auto draw = [&](Packet& p, FrameBuffer& b) {
+    {
+      Timer tm(upload_stage);
+      std::size_t k = 0;
+      for (const IndexRange& r : p.dirty) {
+        const std::size_t len = 4 * std::size_t{r.end - r.begin};
+        std::memcpy(&mirror[4 * std::size_t{r.begin}], &p.values[k], len * sizeof(float));
+        k += len;
+      }
+      view.update(mirror, p.dirty);
+      view.set_transform(p.organ_to_world);
+      for (auto& lv : lesion_views) lv->set_transform(p.organ_to_world);
+      for (std::size_t m = 0; m < mark_views.size(); ++m)
+        if (!mark_shown[m] && mark_view_times[m] <= p.now) {
+          mark_views[m]->set_transform(p.organ_to_world);
+          mark_views[m]->add_to(scene.renderer());
+          mark_shown[m] = true;
+        }
+      for (std::size_t j = 0; j < p.probes.size() && j < probes.size(); ++j)
+        probes[j]->set_state(p.probes[j].world, p.probes[j].axis, p.probes[j].force, p.probes[j].in_contact, j == 0);
+    }
+    {
+      Timer tm(render_stage);
+      scene.render();
+    }
+    {
+      Timer tm(finish_stage);
+      scene.window().finish();
+    }
+    Timer tm(read_stage);
+    b.rgba.resize(std::size_t{4} * o.width * o.height);
+    scene.window().read_rgba(b.rgba);
+    b.packet = &p;
+  };
+
+  // Stage 3 (encoding): the frame top row first in BGR, the overlays, the outputs.
+  auto encode = [&](FrameBuffer& b) {
+    const Packet& p = *b.packet;
+    {
+      Timer tm(convert_stage);
+      for (int y = 0; y < o.height; ++y) {
+        const cv::Mat src(1, o.width, CV_8UC4, b.rgba.data() + std::size_t{4} * o.width * (o.height - 1 - y));
+        cv::Mat dst = frame.row(y);
+        cv::cvtColor(src, dst, cv::COLOR_RGBA2BGR);
+      }
+    }
+    {
+      Timer tm(overlay_stage);
+      if (o.overlays.count("force"))
+        app::draw_force_strip(frame, cv::Rect(0, o.height - strip_h - bar_h, o.width, strip_h), p.force, p.now, 5.0,
+                              s.force_limit);
+      if (o.overlays.count("timeline"))
+        app::draw_timeline(frame, cv::Rect(0, o.height - bar_h, o.width, bar_h), p.now, duration, o.from, to,
+                           snapshot_times, mark_times, p.over_limit);
+      if (with_levels) app::draw_text_block(frame, p.level_lines, {16, 28});
+      if (p.coverage_map) {
+        const int side = map_side;
+        p.coverage_map->copyTo(frame(cv::Rect(o.width - side - 10, 10, side, side)));
+        cv::putText(frame, "coverage", {o.width - side - 4, 26}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {230, 230, 230}, 1,
+                    cv::LINE_AA);
+      }
+    }
+    Timer tm(encode_stage);
+    if (writer.isOpened()) writer.write(frame);
+    if (!o.frames.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%06zu.png", p.index + 1);
+      const auto path = std::filesystem::path(o.frames) / name;
+      if (!cv::imwrite(path.string(), frame)) throw std::runtime_error(path.string() + ": cannot write");
+    }
+    const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+    progress((p.now - o.from) / std::max(1e-9, to - o.from), p.index + 1, wall > 0 ? (p.now - o.from) / wall : 0);
+  };
+
   auto each = [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r,
                   const deform::DeformableSurface& surface) {
     const double now = t.time - t0;
@@ -272,69 +540,98 @@ int run(const Options& o) {
     }
     if (t.tick < from_tick || now + 0.5 / rate < next_frame) return;
     next_frame += 1.0 / o.fps;
-
-    // The 3D frame.
-    const Eigen::Matrix4d X = field ? field->organ_to_world(t.time) : Eigen::Matrix4d::Identity();
-    view.update_all(surface.stream());
-    view.set_transform(X);
-    for (auto& lv : lesion_views) lv->set_transform(X);
-    for (std::size_t k = 0; k < mark_views.size(); ++k)
-      if (!mark_shown[k] && mark_times[k] <= now) {
-        mark_views[k]->set_transform(X);
-        mark_views[k]->add_to(scene.renderer());
-        mark_shown[k] = true;
-      }
-    for (std::size_t j = 0; j < r.size() && j < probes.size(); ++j)
-      probes[j]->set_state(haptics::to_vec(r[j].world), axis[j], haptics::to_vec(r[j].force_world), r[j].in_contact != 0,
-                           j == 0);
-    const auto c0 = Clock::now();
-    const render::Image img = scene.render_image();
-    const auto c1 = Clock::now();
-    render_s += std::chrono::duration<double>(c1 - c0).count();
-    cv::Mat frame;
-    cv::cvtColor(cv::Mat(img.height, img.width, CV_8UC3, const_cast<std::uint8_t*>(img.rgb.data())), frame,
-                 cv::COLOR_RGB2BGR);
-
-    // The overlays.
-    const int strip_h = std::max(80, o.height / 6), bar_h = 22;
-    if (o.overlays.count("force"))
-      app::draw_force_strip(frame, cv::Rect(0, o.height - strip_h - bar_h, o.width, strip_h), force, now, 5.0,
-                            s.force_limit);
-    if (o.overlays.count("timeline"))
-      app::draw_timeline(frame, cv::Rect(0, o.height - bar_h, o.width, bar_h), now, duration, o.from, to,
-                         snapshot_times, mark_times, over_limit);
-    if (o.overlays.count("levels")) {
-      std::vector<std::string> lines;
-      for (std::size_t j = 0; j < r.size(); ++j) {
-        const double th = coverage ? coverage->thickness()[coverage->nearest(haptics::to_vec(r[j].contact_point))] : 0;
-        const auto level = assess::level_of(r[j].depth, th, r[j].in_contact != 0);
-        lines.push_back(cv::format("probe %zu: %s, depth %.1f mm, %.2f N", j + 1, assess::level_name(level),
-                                   1e3 * (r[j].in_contact ? r[j].depth : 0.0), haptics::to_vec(r[j].force_world).norm()));
-      }
-      app::draw_text_block(frame, lines, {16, 28});
+    Packet* p = nullptr;
+    {
+      Timer tm(sim_stage.wait);
+      if (!free_packets.pop(p)) throw Cancelled();
     }
-    if (coverage_map) {
-      const int side = map_side;
-      cv::Mat map = coverage_map->draw(*coverage);
-      map.copyTo(frame(cv::Rect(o.width - side - 10, 10, side, side)));
-      cv::putText(frame, "coverage", {o.width - side - 4, 26}, cv::FONT_HERSHEY_SIMPLEX, 0.45, {230, 230, 230}, 1,
-                  cv::LINE_AA);
+    {
+      Timer tm(pack_stage);
+      fill(*p, t, r, surface, now);
     }
-    const auto c2 = Clock::now();
-    overlay_s += std::chrono::duration<double>(c2 - c1).count();
-    if (writer.isOpened()) writer.write(frame);
-    if (!o.frames.empty()) {
-      char name[32];
-      std::snprintf(name, sizeof name, "frame_%06zu.png", frames + 1);
-      const auto path = std::filesystem::path(o.frames) / name;
-      if (!cv::imwrite(path.string(), frame)) throw std::runtime_error(path.string() + ": cannot write");
+    if (o.pipeline) {
+      to_render.push(p);
+      return;
     }
-    write_s += std::chrono::duration<double>(Clock::now() - c2).count();
-    ++frames;
-    const double wall = std::chrono::duration<double>(Clock::now() - start).count();
-    progress((now - o.from) / std::max(1e-9, to - o.from), frames, wall > 0 ? (now - o.from) / wall : 0);
+    // One stage after the other on this thread (--pipeline off).
+    FrameBuffer* b = nullptr;
+    free_buffers.pop(b);
+    draw(*p, *b);
+    encode(*b);
+    free_packets.push(p);
+    free_buffers.push(b);
   };
-  app::replay_session(s, replay_from, to_tick, each, check);
+
+  if (!o.pipeline) {
+    Timer tm(sim_stage);
+    make_coverage();
+    app::replay_session(s, replay_from, to_tick, each, check);
+  } else {
+    // Three threads: re-simulation ahead of rendering (this thread: the GL
+    // context is current here) ahead of encoding, with bounded queues of
+    // recycled packets and frame buffers between them. An error in any
+    // stage closes every queue so the others stop, and is rethrown here.
+    std::exception_ptr error;
+    std::mutex error_mutex;
+    auto fail = [&](std::exception_ptr e) {
+      {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = e;
+      }
+      free_packets.close();
+      to_render.close();
+      free_buffers.close();
+      to_encode.close();
+    };
+    std::thread simulate([&] {
+      pthread_setname_np(pthread_self(), "replay-sim");
+      try {
+        Timer tm(sim_stage);
+        make_coverage();
+        app::replay_session(s, replay_from, to_tick, each, check);
+      } catch (const Cancelled&) {
+      } catch (...) {
+        fail(std::current_exception());
+      }
+      to_render.close();
+    });
+    std::thread encoding([&] {
+      pthread_setname_np(pthread_self(), "replay-encode");
+      try {
+        FrameBuffer* b = nullptr;
+        for (;;) {
+          {
+            Timer tm(encode_stage.wait);
+            if (!to_encode.pop(b)) break;
+          }
+          encode(*b);
+          free_packets.push(b->packet);
+          free_buffers.push(b);
+        }
+      } catch (...) {
+        fail(std::current_exception());
+      }
+    });
+    try {
+      Packet* p = nullptr;
+      FrameBuffer* b = nullptr;
+      for (;;) {
+        {
+          Timer tm(render_stage.wait);
+          if (!to_render.pop(p)) break;
+          if (!free_buffers.pop(b)) break;
+        }
+        draw(*p, *b);
+        to_encode.push(b);
+      }
+    } catch (...) {
+      fail(std::current_exception());
+    }
+    to_encode.close();
+    simulate.join();
+    encoding.join();
+    if (error) std::rethrow_exception(error);
+  }
   writer.release();
   const double wall = std::chrono::duration<double>(Clock::now() - start).count();
   const double covered = to - o.from;
@@ -344,11 +641,39 @@ int run(const Options& o) {
   if (!o.frames.empty()) where += (where.empty() ? " to " : " and ") + o.frames;
   std::printf("wrote %zu frames%s in %.1f s: %.2f frames/s, %.2fx real time (%.1f s of session)\n", frames,
               where.c_str(), wall, frames / wall, covered / wall, covered);
-  if (frames > 0)
-    std::printf("per frame: render and read back %.1f ms, overlays %.1f ms, encode and write %.1f ms; the rest "
-                "(re-simulation, %llu ticks) %.1f s\n",
-                1e3 * render_s / frames, 1e3 * overlay_s / frames, 1e3 * write_s / frames,
-                static_cast<unsigned long long>(check.ticks), wall - render_s - overlay_s - write_s);
+  // The re-simulation alone: its stage's time less packing, waiting and (one
+  // thread) the other stages run inside it.
+  const double other = o.pipeline ? 0.0
+                                   : upload_stage.s + render_stage.s + finish_stage.s + read_stage.s + convert_stage.s +
+                                         overlay_stage.s + encode_stage.s;
+  const double sim_only = sim_stage.s - pack_stage.s - sim_stage.wait.s - other;
+  if (frames > 0) {
+    const double f = 1e3 / static_cast<double>(frames);
+    std::printf("per frame: render and read back %.1f ms, overlays %.1f ms, encode and write %.1f ms; "
+                "re-simulation (%llu ticks) %.1f s\n",
+                f * (render_stage.s + finish_stage.s + read_stage.s), f * (convert_stage.s + overlay_stage.s),
+                f * encode_stage.s, static_cast<unsigned long long>(check.ticks), sim_only);
+  }
+  if (o.timings && frames > 0) {
+    const double f = 1e3 / static_cast<double>(frames);
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const double cpu = static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+                       1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+    std::printf("timings (ms per frame, %zu frames; %s):\n", frames,
+                o.pipeline ? "three threads: re-simulation | rendering | encoding" : "one thread, stage after stage");
+    std::printf("  re-simulation: ticks and deformation steps %.1f, packet (stream changes, overlay inputs) %.1f, "
+                "waiting for a free packet %.1f\n",
+                f * sim_only, f * pack_stage.s, f * sim_stage.wait.s);
+    std::printf("  rendering: upload and scene %.1f, render (submit) %.1f, render (finish) %.1f, read back "
+                "%.1f, waiting %.1f\n",
+                f * upload_stage.s, f * render_stage.s, f * finish_stage.s, f * read_stage.s, f * render_stage.wait.s);
+    std::printf("  encoding: RGBA to BGR %.1f, overlays %.1f, encode and write %.1f, waiting %.1f\n",
+                f * convert_stage.s, f * overlay_stage.s, f * encode_stage.s, f * encode_stage.wait.s);
+    std::printf("  process: %.2f s CPU over %.2f s wall since start (%.2f s before the first tick: loading, scene)\n",
+                cpu, std::chrono::duration<double>(Clock::now() - process_start).count(),
+                std::chrono::duration<double>(start - process_start).count());
+  }
   std::printf("replay: %s\n", app::describe(check).c_str());
   return check.identical ? 0 : 3;
 }

@@ -26,6 +26,8 @@ VTK_MODULE_INIT(vtkRenderingOpenGL2);
 
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace palpa::render {
@@ -205,6 +207,7 @@ struct OffscreenWindow::Impl {
   std::string renderer, version;
   vtkSmartPointer<vtkGenericOpenGLRenderWindow> window;
   vtkNew<vtkCallbackCommand> callback;
+  vtkNew<vtkUnsignedCharArray> rgba;  // read_rgba(): lent the caller's buffer
 
   // OSMesa state: the context and the colour buffer it renders into.
   OSMesaContext osmesa = nullptr;
@@ -412,6 +415,27 @@ Image OffscreenWindow::capture() const {
     for (int x = 0; x < m.width; ++x) std::memcpy(img.at(x, y), row + 4 * x, 3);
   }
   return img;
+}
+
+void OffscreenWindow::finish() {
+  impl_->window->MakeCurrent();
+  glFinish();
+}
+
+void OffscreenWindow::read_rgba(std::span<std::uint8_t> out) {
+  Impl& m = *impl_;
+  const std::size_t size = static_cast<std::size_t>(m.width) * m.height * 4;
+  if (out.size() != size)
+    throw std::invalid_argument("OffscreenWindow::read_rgba: " + std::to_string(out.size()) + " bytes given, " +
+                                std::to_string(size) + " needed");
+  m.window->MakeCurrent();
+  // VTK reads straight into an array of the right size; `out` lent to it
+  // (save = 1: VTK never frees it), so the pixels land there.
+  m.rgba->SetNumberOfComponents(4);
+  m.rgba->SetArray(out.data(), static_cast<vtkIdType>(size), 1);
+  m.window->GetRGBACharPixelData(0, 0, m.width - 1, m.height - 1, 0, m.rgba, 0);
+  if (m.rgba->GetPointer(0) != out.data()) std::memcpy(out.data(), m.rgba->GetPointer(0), size);
+  m.rgba->SetArray(nullptr, 0, 1);
 }
 
 float OffscreenWindow::depth_at(int x, int y) const {

@@ -27,7 +27,9 @@
 // with Mesa drivers only). palpa (Qt) and palpa-render-bench-gpu do not:
 // there EGL serves both llvmpipe and GPUs, and OSMesa is refused clearly.
 
+#include <cstdint>
 #include <memory>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -96,6 +98,14 @@ class OffscreenWindow {
   void render();
   /// Reads the last rendered frame (RGB, top row first).
   Image capture() const;
+  /// Waits until OpenGL has finished drawing the frame (glFinish): a
+  /// software renderer draws on its own threads after render() returns, so
+  /// time taken around render() alone is only its submission.
+  void finish();
+  /// Reads the last rendered frame as RGBA, bottom row first (OpenGL's
+  /// order), into `out` (width x height x 4 bytes; std::invalid_argument
+  /// otherwise): no allocation, no per-pixel copy.
+  void read_rgba(std::span<std::uint8_t> out);
   /// Reads the depth buffer of the last frame at display pixel (x, y)
   /// (origin bottom-left), in [0, 1].
   float depth_at(int x, int y) const;

@@ -4,6 +4,8 @@
 
 #include <vtkActor.h>
 #include <vtkCamera.h>
+#include <vtkObjectFactory.h>
+#include <vtkOpenGLRenderer.h>
 #include <vtkRenderWindow.h>
 #include <vtkRenderer.h>
 #include <vtkSmartPointer.h>
@@ -41,9 +43,34 @@ void style_renderer(vtkRenderer* renderer) {
   renderer->AutomaticLightCreationOn();  // one headlight
 }
 
+namespace {
+
+// VTK's OpenGL renderer, optionally drawing translucent props with plain
+// alpha blending in prop order instead of VTK 9.1's order-independent
+// translucency, whose extra full-frame passes (two float accumulation
+// targets, a depth copy, a composite) cost llvmpipe about as much as the
+// organ itself at 1280x720.
+class BlendingRenderer : public vtkOpenGLRenderer {
+ public:
+  static BlendingRenderer* New();
+  vtkTypeMacro(BlendingRenderer, vtkOpenGLRenderer);
+  bool plain = false;
+  void DeviceRenderTranslucentPolygonalGeometry(vtkFrameBufferObjectBase* fbo) override {
+    if (!plain) {
+      Superclass::DeviceRenderTranslucentPolygonalGeometry(fbo);
+      return;
+    }
+    this->LastRenderingUsedDepthPeeling = 0;
+    this->UpdateTranslucentPolygonalGeometry();
+  }
+};
+vtkStandardNewMacro(BlendingRenderer);
+
+}  // namespace
+
 struct OffscreenScene::Impl {
   OffscreenWindow window;
-  vtkSmartPointer<vtkRenderer> renderer = vtkSmartPointer<vtkRenderer>::New();
+  vtkSmartPointer<BlendingRenderer> renderer = vtkSmartPointer<BlendingRenderer>::New();
   Impl(int w, int h, GlBackend b) : window(w, h, b) {}
 };
 
@@ -60,8 +87,15 @@ OffscreenWindow& OffscreenScene::window() { return impl_->window; }
 vtkRenderer* OffscreenScene::renderer() const { return impl_->renderer; }
 void OffscreenScene::add(vtkActor* actor) { impl_->renderer->AddActor(actor); }
 
+void OffscreenScene::set_plain_blending(bool on) { impl_->renderer->plain = on; }
+
 void OffscreenScene::look_at(const std::array<double, 6>& bounds, const Vec3& view_dir, const Vec3& up) {
   frame_camera(impl_->renderer, bounds, view_dir, up);
+}
+
+void OffscreenScene::render() {
+  impl_->renderer->ResetCameraClippingRange();
+  impl_->window.render();
 }
 
 Image OffscreenScene::render_image() {

@@ -476,6 +476,8 @@ const UploadStats& SurfaceView::stats() const { return impl_->data.stats; }
 
 void SurfaceView::set_color(double r, double g, double b) { impl_->actor->GetProperty()->SetColor(r, g, b); }
 
+void SurfaceView::set_backface_culling(bool on) { impl_->actor->GetProperty()->SetBackfaceCulling(on); }
+
 void SurfaceView::update(std::span<const float> stream, std::span<const IndexRange> dirty) {
   DeformData& d = impl_->data;
   const std::size_t n = d.mesh->vertex_count();

@@ -101,6 +101,12 @@ class SurfaceView {
   vtkActor* actor() const;
   /// Surface colour, RGB in 0..1.
   void set_color(double r, double g, double b);
+  /// Skips the triangles that face away from the eye (off by default). The
+  /// picture is the same for a closed, outward-oriented surface seen from
+  /// outside (every back face lies behind a front face), at about half the
+  /// rasterisation work; a surface with holes would show its inside
+  /// differently.
+  void set_backface_culling(bool on);
   /// Organ frame -> world (a breathing organ's motion), 4x4 affine, applied
   /// as the actor's user matrix after eq. (2); identity by default. Picks
   /// and bounds stay in the organ frame.

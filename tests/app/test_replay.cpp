@@ -10,6 +10,8 @@
 #include <sys/wait.h>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <array>
 #include <cstdio>
@@ -137,6 +139,67 @@ TEST_F(ReplayCli, FramesAndVideo) {
   png.read(reinterpret_cast<char*>(h), 24);
   EXPECT_EQ((h[16] << 24 | h[17] << 16 | h[18] << 8 | h[19]), 320);
   EXPECT_EQ((h[20] << 24 | h[21] << 16 | h[22] << 8 | h[23]), 240);
+}
+
+// The three-thread replay draws the same frames as the stages run one after
+// the other, bit for bit (the same GL calls on the same data in the same
+// order; only when they run differs).
+TEST_F(ReplayCli, PipelinedFramesAreTheSequentialFrames) {
+  const fs::path on = dir_ / "pipeline_on", off = dir_ / "pipeline_off";
+  const std::string common = " --size 320x240 --fps 20 --from 0.2 --to 0.7";
+  const Result a = run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + on.string() + common);
+  const Result b =
+      run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + off.string() + common + " --pipeline off");
+  ASSERT_EQ(a.rc, 0) << a.out << a.err;
+  ASSERT_EQ(b.rc, 0) << b.out << b.err;
+  EXPECT_NE(b.out.find("one stage at a time"), std::string::npos) << b.out;
+  std::size_t frames = 0;
+  for (const auto& e : fs::directory_iterator(on)) {
+    const cv::Mat x = cv::imread(e.path().string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat y = cv::imread((off / e.path().filename()).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(x.empty());
+    ASSERT_FALSE(y.empty()) << e.path().filename();
+    EXPECT_EQ(cv::norm(x, y, cv::NORM_INF), 0) << e.path().filename();
+    ++frames;
+  }
+  EXPECT_EQ(frames, 11u);
+}
+
+// Culling the closed organ's back faces and blending the translucent shafts
+// plainly (the defaults) against VTK's full path (--cull off --translucency
+// oit): the organ, background and overlays are the same pixels; only the
+// probe shafts (60% opaque) may differ, where VTK's weighted order-
+// independent translucency (16-bit float accumulation, both cylinder walls
+// weighted together) and plain blending (the walls in drawing order) round
+// differently. So: few pixels differ at all, and the differing ones are few.
+TEST_F(ReplayCli, CulledAndPlainlyBlendedFramesMatchVtksFullPath) {
+  const fs::path fast = dir_ / "fast", full = dir_ / "full";
+  const std::string common = " --size 640x360 --fps 10 --from 0.3 --to 0.6";
+  const Result a = run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + fast.string() + common);
+  const Result b = run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + full.string() + common +
+                       " --cull off --translucency oit");
+  ASSERT_EQ(a.rc, 0) << a.out << a.err;
+  ASSERT_EQ(b.rc, 0) << b.out << b.err;
+  std::size_t frames = 0;
+  for (const auto& e : fs::directory_iterator(fast)) {
+    const cv::Mat x = cv::imread(e.path().string(), cv::IMREAD_COLOR);
+    const cv::Mat y = cv::imread((full / e.path().filename()).string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(x.empty());
+    ASSERT_FALSE(y.empty()) << e.path().filename();
+    cv::Mat d;
+    cv::absdiff(x, y, d);
+    std::vector<cv::Mat> c;
+    cv::split(d, c);
+    const cv::Mat m = cv::max(cv::max(c[0], c[1]), c[2]);
+    const double any = cv::countNonZero(m > 0), big = cv::countNonZero(m > 24);
+    const double pixels = static_cast<double>(x.total());
+    std::printf("%s: %.0f pixels differ (%.3f%%), %.0f by more than 24 levels, at most %.0f\n",
+                e.path().filename().c_str(), any, 100 * any / pixels, big, cv::norm(d, cv::NORM_INF));
+    EXPECT_LE(any, 0.005 * pixels) << e.path().filename();
+    EXPECT_LE(big, 0.001 * pixels) << e.path().filename();
+    ++frames;
+  }
+  EXPECT_EQ(frames, 4u);
 }
 
 TEST_F(ReplayCli, AssessExportsTicksOrganAndMarkups) {
