@@ -153,14 +153,15 @@ int run(const Options& o) {
     std::printf("nothing to replay\n");
     return 0;
   }
-  const double t0 = s.file.ticks(0, 1).ticks.front().time;
+  const std::uint64_t first = s.first_tick;  // 0 unless recorded from a running loop (the workbench)
+  const double t0 = s.file.ticks(first, first + 1).ticks.front().time;
   const double duration = static_cast<double>(h.ticks - 1) / rate;
   const bool render_frames = !o.video.empty() || !o.frames.empty();
   app::ForceCheck check;
 
   if (!render_frames) {
     const auto start = Clock::now();
-    app::replay_session(s, 0, h.ticks, nullptr, check);
+    app::replay_session(s, first, first + h.ticks, nullptr, check);
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
     std::printf("replay: %s (%.2f s, %.1fx real time)\n", app::describe(check).c_str(), wall, duration / wall);
     return check.identical ? 0 : 3;
@@ -168,8 +169,9 @@ int run(const Options& o) {
 
   // The scene: the organ, the probes, the lesions to show, the marks.
   const double to = std::min(o.to, duration);
-  const std::uint64_t from_tick = static_cast<std::uint64_t>(std::floor(o.from * rate));
-  const std::uint64_t to_tick = std::min<std::uint64_t>(h.ticks, static_cast<std::uint64_t>(std::floor(to * rate)) + 1);
+  const std::uint64_t from_tick = first + static_cast<std::uint64_t>(std::floor(o.from * rate));
+  const std::uint64_t to_tick =
+      std::min<std::uint64_t>(first + h.ticks, first + static_cast<std::uint64_t>(std::floor(to * rate)) + 1);
   const bool with_coverage = o.overlays.count("coverage") > 0;
   render::OffscreenScene scene(o.width, o.height, o.gl);
   std::printf("rendering %dx%d at %.0f fps with %s (%s)\n", o.width, o.height, o.fps,
@@ -239,13 +241,13 @@ int run(const Options& o) {
   std::vector<std::pair<double, double>> over_limit;
   std::vector<Vec3> axis(h.setups.size(), Vec3::UnitZ());
   std::vector<double> snapshot_times;
-  for (const auto& snap : s.file.snapshots()) snapshot_times.push_back(static_cast<double>(snap.tick) / rate);
+  for (const auto& snap : s.file.snapshots()) snapshot_times.push_back(static_cast<double>(snap.tick - first) / rate);
 
   std::size_t frames = 0;
   double next_frame = o.from;
   double render_s = 0, overlay_s = 0, write_s = 0;  // wall time per part, s
   const auto start = Clock::now();
-  const std::uint64_t replay_from = with_coverage ? 0 : from_tick;  // coverage needs every tick before the window
+  const std::uint64_t replay_from = with_coverage ? first : from_tick;  // coverage needs every tick before the window
   auto each = [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r,
                   const deform::DeformableSurface& surface) {
     const double now = t.time - t0;
