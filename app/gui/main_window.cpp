@@ -1536,7 +1536,7 @@ bool MainWindow::stop_recording() {
   }
   sync_session_actions();
   update_recording_status();
-  browser_->refresh();
+  browser_->refresh_when_shown();
   if (ok) statusBar()->showMessage("Saved the session " + file, 8000);
   return ok;
 }

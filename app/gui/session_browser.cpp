@@ -96,9 +96,18 @@ SessionBrowser::~SessionBrowser() {
 
 void SessionBrowser::set_folder(const QString& folder) {
   folder_ = QDir(folder).absolutePath();
-  QDir().mkpath(folder_);
   folder_label_->setText(folder_);
-  refresh();
+  refresh_when_shown();
+}
+
+void SessionBrowser::refresh_when_shown() {
+  stale_ = true;
+  if (isVisible()) refresh();
+}
+
+void SessionBrowser::showEvent(QShowEvent* event) {
+  QWidget::showEvent(event);
+  if (stale_) refresh();
 }
 
 // The cache key: the file, its size and its modification time (a file
@@ -109,6 +118,7 @@ QString SessionBrowser::cache_key(const QString& path) {
 }
 
 void SessionBrowser::refresh() {
+  stale_ = false;
   entries_.clear();
   const QDir dir(folder_);
   // Newest first; hidden files (a recorder's ".NAME.creating-PID") are not sessions yet.

@@ -49,11 +49,14 @@ class SessionBrowser : public QWidget {
   /// Stops the scoring worker (a replay in progress is abandoned).
   ~SessionBrowser() override;
 
-  /// Lists `folder` (created when missing).
+  /// Lists `folder` (now when shown, else when next shown: nothing is read
+  /// or scored while the browser is hidden).
   void set_folder(const QString& folder);
   QString folder() const { return folder_; }
-  /// Reads the folder again.
+  /// Reads the folder again (now, shown or not).
   void refresh();
+  /// Reads the folder again now when shown, else when next shown.
+  void refresh_when_shown();
 
   int count() const { return static_cast<int>(entries_.size()); }
   const SessionEntry& entry(int row) const { return entries_.at(static_cast<std::size_t>(row)); }
@@ -76,12 +79,14 @@ class SessionBrowser : public QWidget {
     bool passed = false;
     QString error;
   };
+  void showEvent(QShowEvent* event) override;
   void fill_row(int row);
   void score_done(const QString& key, const QString& path, const ScoreResult& r);
   void worker_main();
   static QString cache_key(const QString& path);
 
   QString folder_;
+  bool stale_ = true;  // the folder changed since it was last read
   QLabel* folder_label_ = nullptr;
   QTableWidget* table_ = nullptr;
   std::vector<SessionEntry> entries_;
