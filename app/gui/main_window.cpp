@@ -1520,7 +1520,10 @@ bool MainWindow::start_recording() {
   clear_error();
   sync_session_actions();
   update_recording_status();
-  statusBar()->showMessage("Recording to " + path, 5000);
+  statusBar()->showMessage(QString("Recording to %1 (the haptic loop paused %2 ms for the snapshot it starts from)")
+                               .arg(path)
+                               .arg(1e3 * workbench_.record_pause(), 0, 'f', 1),
+                           5000);
   return true;
 }
 

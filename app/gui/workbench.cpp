@@ -172,6 +172,7 @@ void Workbench::start_recording(const std::filesystem::path& file, const std::st
 
   // The snapshot: the loop's threads pause for it (milliseconds).
   stop_discarding();
+  const auto paused = std::chrono::steady_clock::now();
   loop_->stop();
   haptics::TickRecord t;
   haptics::CommandRecord c;
@@ -197,6 +198,7 @@ void Workbench::start_recording(const std::filesystem::path& file, const std::st
     throw;
   }
   loop_->start();
+  record_pause_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - paused).count();
 
   std::unique_ptr<record::Recorder> r;
   try {

@@ -223,6 +223,9 @@ class Workbench {
   std::filesystem::path recording_file() const;
   /// The recorder's ticks committed and records dropped (zeros when not recording).
   record::RecorderStats recording_stats() const;
+  /// Wall time the loop's threads were stopped for the latest recording's
+  /// snapshot, s (0 before any).
+  double record_pause() const { return record_pause_s_; }
   /// s of loop time since the recording started (0 when not recording).
   double recording_elapsed() const { return recorder_ ? loop_time_ - record_start_time_ : 0.0; }
 
@@ -291,6 +294,7 @@ class Workbench {
 
   std::unique_ptr<record::Recorder> recorder_;  // null: not recording
   double record_start_time_ = 0;                // s, loop clock when the recording started
+  double record_pause_s_ = 0;                   // s, wall time the loop stopped for the snapshot
   bool suspended_ = false;
   std::thread discard_thread_;
   std::atomic<bool> discard_stop_{false};

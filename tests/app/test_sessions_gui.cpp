@@ -30,6 +30,7 @@
 #include <QTest>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <iterator>
@@ -85,6 +86,8 @@ class SessionsGuiTest : public ::testing::Test {
     EXPECT_TRUE(wb.loop()->running());
     EXPECT_GE(wb.loop()->ticks(), before) << "the loop's tick count goes on";
     const std::filesystem::path file = wb.recording_file();
+    // Measured, not asserted (wall time): how long the loop's threads stopped for the snapshot.
+    std::printf("the loop paused %.2f ms for the recording's snapshot\n", 1e3 * wb.record_pause());
     EXPECT_TRUE(w.recording_text().startsWith("Recording")) << w.recording_text().toStdString();
     const auto& mesh = *wb.organ().mesh;
     const int id = wb.probes().front().id;
