@@ -3,6 +3,9 @@
 #include "app/gui/main_window.h"
 
 #include "app/gui/force_plot.h"
+#include "app/gui/replay_panel.h"
+#include "app/gui/session_browser.h"
+#include "app/gui/session_player.h"
 #include "mesh/io.h"
 #include "render/lesion_view.h"
 #include "render/probe_view.h"
@@ -14,7 +17,9 @@
 #include <QCheckBox>
 #include <QCloseEvent>
 #include <QComboBox>
+#include <QDateTime>
 #include <QDialog>
+#include <QDir>
 #include <QDialogButtonBox>
 #include <QDockWidget>
 #include <QDoubleSpinBox>
@@ -37,8 +42,11 @@
 #include <QScrollBar>
 #include <QSettings>
 #include <QSpinBox>
+#include <QRegularExpression>
 #include <QStackedWidget>
+#include <QStandardPaths>
 #include <QStatusBar>
+#include <QToolBar>
 #include <QSurfaceFormat>
 #include <QVBoxLayout>
 #include <QWheelEvent>
@@ -96,7 +104,10 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
   setAcceptDrops(true);
   build_ui();
   build_menus();
+  build_session_ui();
   load_settings();
+  replay_dock_->hide();  // a replay starts from the browser or the menu, never from saved state
+  browser_->set_folder(sessions_folder_);
   open_default_organ();
 
   // Frame timer: the haptic loop runs on its own threads; each frame reads
@@ -108,6 +119,10 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
 
 MainWindow::~MainWindow() {
   frame_timer_.stop();
+  if (replay_panel_) replay_panel_->close();
+  replay_probe_views_.clear();
+  replay_lesion_views_.clear();
+  replay_view_.reset();
   // Probe and surface views go before the render window releases GL state.
   if (vtk_) {
     vtk_->renderer->RemoveAllViewProps();
@@ -493,6 +508,8 @@ void MainWindow::load_settings() {
   hold_action_->setChecked(s.value("probe/hold", true).toBool());
   force_arrows_action_->setChecked(s.value("view/force_arrows", true).toBool());
   recent_ = s.value("recentFiles").toStringList();
+  trainee_edit_->setText(s.value("session/trainee", QString()).toString());
+  sessions_folder_ = s.value("session/folder", default_sessions_folder()).toString();
   restoreGeometry(s.value("window/geometry").toByteArray());
   restoreState(s.value("window/state").toByteArray());
   loading_settings_ = false;
@@ -523,11 +540,14 @@ void MainWindow::save_settings() const {
   s.setValue("probe/hold", hold_action_->isChecked());
   s.setValue("view/force_arrows", force_arrows_action_->isChecked());
   s.setValue("recentFiles", recent_);
+  s.setValue("session/trainee", trainee_edit_->text());
+  s.setValue("session/folder", sessions_folder_);
   s.setValue("window/geometry", saveGeometry());
   s.setValue("window/state", saveState());
 }
 
 void MainWindow::closeEvent(QCloseEvent* event) {
+  if (recording()) stop_recording();
   save_settings();
   QMainWindow::closeEvent(event);
 }
@@ -617,12 +637,14 @@ void MainWindow::open_default_organ() {
 // Builds the new surface and view first; only then replaces the old ones.
 void MainWindow::install_organ(mesh::Organ organ) {
   auto view = std::make_unique<render::SurfaceView>(organ.mesh);
+  leave_replay();
   workbench_.set_organ(std::move(organ));  // all or nothing
   show_new_organ(std::move(view));
 }
 
 void MainWindow::install_scenario(scenario::Resolved resolved) {
   auto view = std::make_unique<render::SurfaceView>(resolved.organ.mesh);
+  leave_replay();
   workbench_.set_scenario(std::move(resolved));  // all or nothing
   show_new_organ(std::move(view));
 }
@@ -672,6 +694,8 @@ void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
   facts_->setText(text);
   show_task();
   sync_material_panel();
+
+  sync_session_actions();  // a new organ ended any recording of the old loop
 
   // Camera on the whole organ.
   render::frame_camera(vtk_->renderer, view_->bounds(), Vec3(0.3, -1.0, 0.8), Vec3::UnitZ());
@@ -1113,7 +1137,7 @@ bool MainWindow::pick_at(const QPoint& pos, Vec3& rest_point, Vec3& rest_normal,
 }
 
 bool MainWindow::mouse_press(QMouseEvent* e) {
-  if (e->button() != Qt::LeftButton || !workbench_.has_organ()) return false;
+  if (e->button() != Qt::LeftButton || !workbench_.has_organ() || in_replay()) return false;
   Vec3 rest, normal, drawn;
   if (!pick_at(e->pos(), rest, normal, drawn)) return false;  // off the organ: VTK rotates
   const int id = mouse_probe_for(rest);
@@ -1166,7 +1190,7 @@ bool MainWindow::mouse_move(QMouseEvent* e) {
     }
     return true;
   }
-  if (e->buttons() != Qt::NoButton) return false;  // VTK is rotating or zooming
+  if (e->buttons() != Qt::NoButton || in_replay()) return false;  // VTK is rotating or zooming
   // Hover: show where the probe would touch.
   Vec3 rest, normal, drawn;
   if (pick_at(e->pos(), rest, normal, drawn)) {
@@ -1215,9 +1239,16 @@ bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
 // ---------------------------------------------------------------------------
 // The frame: the loop's latest state, the changed stream entries to the GPU, draw.
 void MainWindow::advance() {
+  if (in_replay()) {
+    // The replay panel moves the player; the live loop is stopped.
+    vtk_->window->Render();
+    ++frames_in_window_;
+    return;
+  }
   if (!workbench_.has_organ() || !view_) return;
   const double now = clock_.nsecsElapsed() * 1e-9;
   workbench_.update();
+  if (workbench_.recording()) update_recording_status();
   pull_surface();
   apply_frame_transform();
   sync_probe_views();
@@ -1352,5 +1383,303 @@ void MainWindow::update_readouts() {
 
 QString MainWindow::warnings_text() const { return warnings_label_->text(); }
 QString MainWindow::device_status_text() const { return device_label_->text(); }
+
+// ---------------------------------------------------------------------------
+// Sessions: Record / Stop with the trainee's name, the browser, the replay.
+void MainWindow::build_session_ui() {
+  QMenu* menu = menuBar()->addMenu("S&ession");
+  menu->setToolTipsVisible(true);
+  record_action_ = menu->addAction("&Record", this, [this] { start_recording(); });
+  record_action_->setObjectName("recordSession");
+  record_action_->setShortcut(QKeySequence("Ctrl+Shift+R"));
+  record_action_->setToolTip("Record this session (every tick, command and deformation step of the running haptic "
+                             "loop) into a new session file of the sessions folder, with the trainee's name");
+  stop_action_ = menu->addAction("&Stop recording", this, [this] { stop_recording(); });
+  stop_action_->setObjectName("stopRecording");
+  stop_action_->setShortcut(QKeySequence("Ctrl+Shift+S"));
+  stop_action_->setToolTip("Stop the recording and finish its file (the browser lists it)");
+  menu->addSeparator();
+  QAction* replay = menu->addAction("Re&play a session file...", this, [this] {
+    const QString path = QFileDialog::getOpenFileName(this, "Replay a session", sessions_folder_,
+                                                      "Palpa sessions (*.palpa);;All files (*)");
+    if (!path.isEmpty()) open_replay(path);
+  });
+  replay->setToolTip("Replay a recorded session in the window, with a timeline");
+  leave_replay_action_ = menu->addAction("&Back to live", this, &MainWindow::leave_replay);
+  leave_replay_action_->setObjectName("leaveReplay");
+  leave_replay_action_->setToolTip("Leave the replay: the live organ, probes and haptic loop again");
+  QAction* folder = menu->addAction("Sessions &folder...", this, [this] {
+    const QString dir = QFileDialog::getExistingDirectory(this, "Folder for new recordings", sessions_folder_);
+    if (!dir.isEmpty()) set_sessions_folder(dir);
+  });
+  folder->setToolTip("Where new recordings are written (and what the browser lists)");
+
+  // The toolbar: Record, Stop, the trainee's name.
+  QToolBar* bar = addToolBar("Session");
+  bar->setObjectName("sessionToolBar");
+  bar->addAction(record_action_);
+  bar->addAction(stop_action_);
+  bar->addWidget(new QLabel(" Trainee "));
+  trainee_edit_ = new QLineEdit;
+  trainee_edit_->setObjectName("traineeName");
+  trainee_edit_->setPlaceholderText("name");
+  trainee_edit_->setMaximumWidth(220);
+  trainee_edit_->setToolTip("The trainee's name: written into each recording (its `trainee` meta row) and its "
+                            "file name; remembered between runs");
+  connect(trainee_edit_, &QLineEdit::editingFinished, this, [this] { save_settings(); });
+  bar->addWidget(trainee_edit_);
+
+  // The status bar: recording, elapsed time, dropped records.
+  record_label_ = new QLabel;
+  record_label_->setObjectName("recordingStatus");
+  record_label_->setStyleSheet("QLabel { color: #b01010; font-weight: bold; }");
+  record_label_->setToolTip("Recording: session time since Record (s) and the records the writer could not take");
+  record_label_->hide();
+  statusBar()->addPermanentWidget(record_label_);
+
+  // The browser (a dock, hidden until asked for) and the replay timeline.
+  browser_ = new SessionBrowser;
+  browser_dock_ = new QDockWidget("Sessions", this);
+  browser_dock_->setObjectName("sessionBrowserDock");
+  browser_dock_->setWidget(browser_);
+  addDockWidget(Qt::BottomDockWidgetArea, browser_dock_);
+  browser_dock_->hide();
+  QAction* show_browser = browser_dock_->toggleViewAction();
+  show_browser->setText("Session &browser");
+  show_browser->setObjectName("showSessionBrowser");
+  show_browser->setShortcut(QKeySequence("Ctrl+Shift+B"));
+  show_browser->setToolTip("The recorded sessions: trainee, scenario, date, duration and score; double-click one "
+                           "to replay it");
+  menu->insertAction(replay, show_browser);
+  connect(browser_, &SessionBrowser::open_requested, this, [this](const QString& path) { open_replay(path); });
+
+  replay_panel_ = new ReplayPanel;
+  replay_dock_ = new QDockWidget("Replay", this);
+  replay_dock_->setObjectName("replayDock");
+  replay_dock_->setWidget(replay_panel_);
+  addDockWidget(Qt::BottomDockWidgetArea, replay_dock_);
+  replay_dock_->hide();
+  connect(replay_panel_, &ReplayPanel::moved, this, &MainWindow::draw_replay);
+  connect(replay_panel_, &ReplayPanel::leave_requested, this, &MainWindow::leave_replay);
+  connect(replay_panel_, &ReplayPanel::failed, this, [this](const QString& text) { show_error("Replay: " + text); });
+  sync_session_actions();
+}
+
+QString MainWindow::default_sessions_folder() {
+  return QDir(QStandardPaths::writableLocation(QStandardPaths::AppDataLocation)).filePath("sessions");
+}
+
+void MainWindow::set_sessions_folder(const QString& folder) {
+  sessions_folder_ = QDir(folder).absolutePath();
+  browser_->set_folder(sessions_folder_);
+  if (!loading_settings_) save_settings();
+}
+
+QString MainWindow::session_file_name(const QString& trainee, const QString& what, const QDateTime& utc) {
+  auto part = [](const QString& text, const char* fallback) {
+    QString p = text.trimmed();
+    p.replace(QRegularExpression("[^A-Za-z0-9_-]+"), "-");
+    p.replace(QRegularExpression("^-+|-+$"), "");
+    return p.isEmpty() ? QString(fallback) : p.left(48);
+  };
+  return QString("%1_%2_%3Z.palpa")
+      .arg(part(trainee, "anonymous"), part(what, "organ"), utc.toUTC().toString("yyyyMMdd-HHmmss"));
+}
+
+QString MainWindow::trainee() const { return trainee_edit_->text().trimmed(); }
+
+void MainWindow::set_trainee(const QString& name) {
+  trainee_edit_->setText(name);
+  save_settings();
+}
+
+bool MainWindow::start_recording() {
+  if (recording()) return false;
+  if (in_replay()) {
+    show_error("Could not start recording: leave the replay first (Session > Back to live)");
+    return false;
+  }
+  if (!QDir().mkpath(sessions_folder_)) {
+    show_error(QString("Could not start recording: cannot create the sessions folder %1").arg(sessions_folder_));
+    return false;
+  }
+  const scenario::Resolved* sc = workbench_.scenario();
+  const QString what = sc ? QString::fromStdString(sc->scenario.file.stem().string())
+                          : QFileInfo(QString::fromStdString(workbench_.organ().name)).completeBaseName();
+  const QDir dir(sessions_folder_);
+  QString path = dir.filePath(session_file_name(trainee(), what, QDateTime::currentDateTimeUtc()));
+  for (int k = 2; QFileInfo::exists(path); ++k)  // two recordings in one second
+    path = dir.filePath(QFileInfo(path).completeBaseName().section('~', 0, 0) + QString("~%1.palpa").arg(k));
+  save_settings();
+  try {
+    workbench_.start_recording(path.toStdString(), trainee().toStdString());
+  } catch (const std::exception& e) {
+    show_error(QString("Could not start recording: %1").arg(e.what()));
+    return false;
+  }
+  clear_error();
+  sync_session_actions();
+  update_recording_status();
+  statusBar()->showMessage(QString("Recording to %1 (the haptic loop paused %2 ms for the snapshot it starts from)")
+                               .arg(path)
+                               .arg(1e3 * workbench_.record_pause(), 0, 'f', 1),
+                           5000);
+  return true;
+}
+
+bool MainWindow::stop_recording() {
+  if (!recording()) return false;
+  bool ok = true;
+  QString file = QString::fromStdString(workbench_.recording_file().string());
+  try {
+    file = QString::fromStdString(workbench_.stop_recording().string());
+  } catch (const std::exception& e) {
+    show_error(QString("The recording stopped with an error: %1").arg(e.what()));
+    ok = false;
+  }
+  sync_session_actions();
+  update_recording_status();
+  browser_->refresh_when_shown();
+  if (ok) statusBar()->showMessage("Saved the session " + file, 8000);
+  return ok;
+}
+
+QString MainWindow::recording_text() const { return record_label_->isVisible() ? record_label_->text() : QString(); }
+
+void MainWindow::update_recording_status() {
+  if (!workbench_.recording()) {
+    record_label_->clear();
+    record_label_->hide();
+    return;
+  }
+  const record::RecorderStats st = workbench_.recording_stats();
+  record_label_->setText(QString("Recording %1 s, %2 dropped records")
+                             .arg(workbench_.recording_elapsed(), 0, 'f', 1)
+                             .arg(st.dropped));
+  record_label_->setToolTip(QString("Recording to %1: %2 ticks committed; session time since Record (s) and the "
+                                    "records the writer could not take")
+                                .arg(QString::fromStdString(workbench_.recording_file().string()))
+                                .arg(st.ticks_committed));
+  record_label_->show();
+}
+
+void MainWindow::sync_session_actions() {
+  const bool rec = workbench_.recording();
+  record_action_->setEnabled(!rec && !in_replay() && workbench_.loop());
+  stop_action_->setEnabled(rec);
+  leave_replay_action_->setEnabled(in_replay());
+  trainee_edit_->setEnabled(!rec);
+  if (!rec) update_recording_status();
+}
+
+// A replay: the session's mesh in a view of its own, its probes, its shown
+// lesions; the live view and probes are put aside and the loop stopped.
+bool MainWindow::open_replay(const QString& path) {
+  const QFileInfo info(path);
+  if (recording()) {
+    show_error(QString("Could not replay %1: stop the recording first").arg(info.fileName()));
+    return false;
+  }
+  std::unique_ptr<SessionPlayer> player;
+  std::unique_ptr<render::SurfaceView> view;
+  try {
+    player = std::make_unique<SessionPlayer>(path.toStdString());
+    view = std::make_unique<render::SurfaceView>(player->session().model->mesh);
+  } catch (const std::exception& e) {
+    show_error(QString("Could not replay %1: %2").arg(info.fileName(), QString::fromStdString(e.what())));
+    return false;
+  }
+  if (!in_replay()) {
+    workbench_.suspend();  // the live devices no longer drive the organ
+    if (view_) vtk_->renderer->RemoveActor(view_->actor());
+    for (auto& [id, pv] : probe_views_) pv->set_visible(false);
+    for (auto& lv : lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
+    hover_view_->set_visible(false);
+    indenting_ = false;
+  } else {
+    vtk_->renderer->RemoveActor(replay_view_->actor());
+    for (auto& pv : replay_probe_views_) pv->remove_from(vtk_->renderer);
+    for (auto& lv : replay_lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
+  }
+  replay_probe_views_.clear();
+  replay_lesion_views_.clear();
+  const bool same_organ = view_ && view_->mesh().positions == view->mesh().positions;
+  replay_view_ = std::move(view);
+  vtk_->renderer->AddActor(replay_view_->actor());
+  const auto b = replay_view_->bounds();
+  const double diag = std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) + (b[5] - b[4]) * (b[5] - b[4]));
+  for (std::size_t j = 0; j < player->session().file.header().setups.size(); ++j) {
+    auto pv = std::make_unique<render::ProbeView>(0.006 * diag, 0.12 * diag);
+    pv->set_force_scale(0.2 * diag / std::max(player->session().force_limit > 0 ? player->session().force_limit : 8.0, 1e-9));
+    pv->add_to(vtk_->renderer);
+    pv->set_visible(false);
+    replay_probe_views_.push_back(std::move(pv));
+  }
+  for (const tissue::Lesion& l : player->session().lesions) {
+    if (l.visibility != tissue::Visibility::Shown && !reveal_action_->isChecked()) continue;
+    replay_lesion_views_.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
+    replay_lesion_views_.back()->add_to(vtk_->inclusions);
+  }
+  if (!same_organ) render::frame_camera(vtk_->renderer, replay_view_->bounds(), Vec3(0.3, -1.0, 0.8), Vec3::UnitZ());
+  replay_panel_->open(std::move(player));  // draws its first tick (moved)
+  replay_dock_->show();
+  replay_dock_->raise();
+  sync_session_actions();
+  clear_error();
+  statusBar()->showMessage("Replaying " + info.fileName() + " (the live loop is paused)", 5000);
+  vtk_->window->Render();
+  return true;
+}
+
+void MainWindow::leave_replay() {
+  if (!in_replay()) return;
+  replay_panel_->close();
+  vtk_->renderer->RemoveActor(replay_view_->actor());
+  for (auto& pv : replay_probe_views_) pv->remove_from(vtk_->renderer);
+  for (auto& lv : replay_lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
+  replay_probe_views_.clear();
+  replay_lesion_views_.clear();
+  replay_view_.reset();
+  replay_dock_->hide();
+  if (view_) vtk_->renderer->AddActor(view_->actor());
+  rebuild_lesion_views();
+  workbench_.resume();
+  need_full_sync_ = true;
+  pull_surface();
+  sync_probe_views();
+  sync_session_actions();
+  statusBar()->showMessage("Back to the live session", 3000);
+  vtk_->window->Render();
+}
+
+// The replayed tick: its surface, probes (where the devices put them, the
+// contact normal, the force unless a scenario hides it) and breathing.
+void MainWindow::draw_replay() {
+  const SessionPlayer* p = replay_panel_->player();
+  if (!p || !replay_view_) return;
+  replay_view_->update_all(p->surface().stream());
+  const auto& field = p->session().model->field;
+  if (field && field->breathing.enabled) {
+    const Eigen::Matrix4d x = field->organ_to_world(p->clock_time());
+    replay_view_->set_transform(x);
+    for (auto& lv : replay_lesion_views_) lv->set_transform(x);
+  }
+  const bool arrows = p->session().lesions.empty() && p->session().scenario_title.empty()
+                          ? force_arrows_action_->isChecked()
+                          : reveal_action_->isChecked();
+  const auto results = p->results();
+  for (std::size_t j = 0; j < replay_probe_views_.size(); ++j) {
+    render::ProbeView& pv = *replay_probe_views_[j];
+    if (j >= results.size() || !(results[j].sample.status & PALPA_STATUS_VALID)) {
+      pv.set_visible(false);
+      continue;
+    }
+    const haptics::ProbeTickResult& r = results[j];
+    const Vec3 force = haptics::to_vec(r.force_world);
+    const Vec3 axis = r.in_contact ? Vec3(haptics::to_vec(r.contact_normal)) : Vec3::UnitZ();
+    pv.set_visible(true);
+    pv.set_state(haptics::to_vec(r.world), axis, arrows ? force : Vec3::Zero(), r.in_contact != 0, j == 0);
+  }
+}
 
 }  // namespace palpa::app

@@ -3,8 +3,10 @@
 // real-time haptic loop (mouse probes the window feeds from picking, and
 // probes bound to device plugins from the Devices menu), live readouts from
 // the loop and a force plot, the material panel, organ files by menu, drag
-// and drop and recent files, settings kept between runs. Errors appear in the
-// window; the scene stays as it was.
+// and drop and recent files, settings kept between runs. Sessions: Record /
+// Stop with the trainee's name (a session file per recording), a session
+// browser and in-app replay with a timeline (docs/RECORDING.md, "In the
+// workbench"). Errors appear in the window; the scene stays as it was.
 
 #include "app/gui/workbench.h"
 
@@ -19,7 +21,9 @@
 #include <vector>
 
 class QAction;
+class QDateTime;
 class QGroupBox;
+class QLineEdit;
 class QMimeData;
 class QComboBox;
 class QDockWidget;
@@ -40,6 +44,8 @@ class SurfaceView;
 namespace palpa::app {
 
 class ForcePlot;
+class ReplayPanel;
+class SessionBrowser;
 
 /// Call before creating the QApplication: VTK's surface format with
 /// multisampling off, and the organisation name QSettings files go under.
@@ -96,10 +102,48 @@ class MainWindow : public QMainWindow {
   /// Re-enables force output of the selected probe (clears a latched fault).
   void reenable_selected();
 
+  // Sessions.
+  /// Starts recording the running loop (Session > Record) into a new file
+  /// of sessions_folder() named by session_file_name() with the trainee
+  /// field's name; the loop goes on (Workbench::start_recording). On
+  /// failure shows the error and returns false.
+  bool start_recording();
+  /// Stops and finishes the recording (Session > Stop); the browser lists
+  /// it. False when not recording or when the writer failed (shown).
+  bool stop_recording();
+  bool recording() const { return workbench_.recording(); }
+  /// The status bar's recording text ("Recording 12.3 s, 0 dropped
+  /// records"; empty when not recording).
+  QString recording_text() const;
+  /// Where recordings go (QSettings; default default_sessions_folder()).
+  QString sessions_folder() const { return sessions_folder_; }
+  /// Sets it (kept in QSettings) and lists it in the browser.
+  void set_sessions_folder(const QString& folder);
+  /// "sessions" under QStandardPaths::AppDataLocation.
+  static QString default_sessions_folder();
+  /// TRAINEE_WHAT_yyyyMMdd-HHmmssZ.palpa, each part reduced to letters,
+  /// digits, '-' and '_' (an empty trainee is "anonymous").
+  static QString session_file_name(const QString& trainee, const QString& what, const QDateTime& utc);
+  /// The trainee name field (kept in QSettings).
+  QString trainee() const;
+  void set_trainee(const QString& name);
+  SessionBrowser* session_browser() const { return browser_; }
+  ReplayPanel* replay_panel() const { return replay_panel_; }
+  /// Replays a session file in the window (a recording must be stopped
+  /// first): the live loop stops (its devices do not drive the organ), the
+  /// view shows the replayed surface and probes, the timeline appears. On
+  /// failure shows the error (naming the file) and returns false; the live
+  /// session stays as it was.
+  bool open_replay(const QString& path);
+  /// Back to the live session: its organ, probes and loop running again.
+  void leave_replay();
+  bool in_replay() const { return replay_view_ != nullptr; }
+
   Workbench& workbench() { return workbench_; }
   QVTKOpenGLNativeWidget* viewport() const { return viewport_; }
   vtkRenderer* renderer() const;
-  render::SurfaceView* surface_view() const { return view_.get(); }
+  /// The surface drawn: the replayed one during a replay, else the live organ's.
+  render::SurfaceView* surface_view() const { return replay_view_ ? replay_view_.get() : view_.get(); }
   /// The error shown in the window, empty when none.
   QString error_text() const;
   QString facts_text() const;
@@ -125,6 +169,10 @@ class MainWindow : public QMainWindow {
  private:
   void build_ui();
   void build_menus();
+  void build_session_ui();
+  void sync_session_actions();
+  void update_recording_status();
+  void draw_replay();
   QWidget* build_material_panel();
   void load_settings();
   void save_settings() const;
@@ -208,6 +256,21 @@ class MainWindow : public QMainWindow {
   QAction* force_arrows_action_ = nullptr;
   QAction* reveal_action_ = nullptr;
   QStringList recent_;
+
+  // Sessions: recording, the browser, the replay.
+  QLineEdit* trainee_edit_ = nullptr;
+  QAction* record_action_ = nullptr;
+  QAction* stop_action_ = nullptr;
+  QAction* leave_replay_action_ = nullptr;
+  QLabel* record_label_ = nullptr;
+  QDockWidget* browser_dock_ = nullptr;
+  QDockWidget* replay_dock_ = nullptr;
+  SessionBrowser* browser_ = nullptr;
+  ReplayPanel* replay_panel_ = nullptr;
+  QString sessions_folder_;
+  std::unique_ptr<render::SurfaceView> replay_view_;  // non-null: replaying
+  std::vector<std::unique_ptr<render::ProbeView>> replay_probe_views_;
+  std::vector<std::unique_ptr<render::EllipsoidView>> replay_lesion_views_;
 
   // Gesture state: pressing with a probe, where the press started.
   bool indenting_ = false;

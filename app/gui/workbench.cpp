@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 namespace palpa::app {
@@ -11,6 +13,11 @@ namespace {
 
 constexpr double kHapticRateHz = 1000;  // haptic tick rate, Hz
 constexpr double kDeformRateHz = 1000;  // deformation integration rate, Hz (the stiff materials need 1 ms steps)
+// Items per record queue of the loop: 8 s of ticks at 1 kHz (about 20 MB
+// for the three queues), emptied every few ms by the recorder's writer or,
+// while nothing records, by the workbench's discard thread.
+constexpr std::size_t kRecordCapacity = std::size_t{1} << 13;
+constexpr auto kDiscardPeriod = std::chrono::milliseconds(5);  // how often the discard thread empties the queues
 
 // CLOCK_MONOTONIC in s (steady_clock is CLOCK_MONOTONIC on Linux, like the loop's clock).
 double monotonic_now() {
@@ -33,6 +40,8 @@ Workbench::Workbench() = default;
 Workbench::Workbench(devices::PluginLoader loader) : loader_(std::move(loader)) {}
 
 Workbench::~Workbench() {
+  end_recording_quietly();
+  stop_discarding();
   // The loop stops (zero force to every device) before the devices go.
   if (loop_) loop_->stop();
   loop_.reset();
@@ -46,6 +55,7 @@ haptics::LoopConfig Workbench::loop_config(const MaterialSettings& m) const {
   c.core.deform_rate_hz = kDeformRateHz;
   c.core.force = force_params(m);
   c.core.shape = deform::ShapeFunction{m.shape, m.radius};
+  c.record_capacity = kRecordCapacity;  // so that a recording can start while the loop runs
   return c;
 }
 
@@ -72,15 +82,18 @@ std::unique_ptr<haptics::HapticLoop> Workbench::build_loop(const mesh::Organ& or
   if (!organ.mesh) return nullptr;
   std::vector<haptics::ProbeBinding> bindings;
   for (const Probe& p : probes) bindings.push_back(binding(p));
-  if (model) return std::make_unique<haptics::HapticLoop>(std::move(model), materials, config, std::move(bindings));
-  return std::make_unique<haptics::HapticLoop>(organ.mesh, materials, deform::SurfaceOptions{}, config,
-                                               std::move(bindings));
+  // Always on a session model: a recording names it (record::Recorder).
+  if (!model) model = haptics::SessionModel::make(organ.mesh, deform::SurfaceOptions{}, config.core);
+  return std::make_unique<haptics::HapticLoop>(std::move(model), materials, config, std::move(bindings));
 }
 
 // Nothing here throws once `next` is built: stop the old loop, swap, start.
 // The mouse devices are fed the probes' current state before the new loop
 // starts, so its first ticks never read a position from before the change.
 void Workbench::install(std::unique_ptr<haptics::HapticLoop> next, std::vector<Probe>& probes) {
+  end_recording_quietly();  // a recording belongs to its loop
+  stop_discarding();
+  suspended_ = false;
   if (loop_) loop_->stop();
   std::swap(loop_, next);
   std::swap(probes_, probes);
@@ -93,8 +106,154 @@ void Workbench::install(std::unique_ptr<haptics::HapticLoop> next, std::vector<P
   for (const Probe& p : probes_) feed(p);
   if (!loop_) return;
   loop_->start();
+  start_discarding();
   for (const Probe& p : probes_)
     if (p.force_output && p.wants_output) last_ticket_ = loop_->enable(p.slot);
+}
+
+// ---------------------------------------------------------------------------
+// Recording.
+void Workbench::start_discarding() {
+  if (!loop_ || discard_thread_.joinable()) return;
+  discard_stop_.store(false);
+  haptics::HapticLoop* loop = loop_.get();
+  discard_thread_ = std::thread([this, loop] {
+    haptics::TickRecord t;
+    haptics::CommandRecord c;
+    haptics::DeformRecord d;
+    while (!discard_stop_.load(std::memory_order_acquire)) {
+      if (auto* q = loop->tick_records())
+        while (q->pop(t)) {
+        }
+      if (auto* q = loop->command_records())
+        while (q->pop(c)) {
+        }
+      if (auto* q = loop->deform_records())
+        while (q->pop(d)) {
+        }
+      std::this_thread::sleep_for(kDiscardPeriod);
+    }
+  });
+}
+
+void Workbench::stop_discarding() {
+  if (!discard_thread_.joinable()) return;
+  discard_stop_.store(true, std::memory_order_release);
+  discard_thread_.join();
+}
+
+std::filesystem::path Workbench::recording_file() const { return recorder_ ? recorder_->file() : std::filesystem::path(); }
+
+record::RecorderStats Workbench::recording_stats() const { return recorder_ ? recorder_->stats() : record::RecorderStats{}; }
+
+// The recording starts from a snapshot of the running loop: its threads
+// stop (both replicas level, every queued command applied), the state is
+// copied, and they go on where they stopped. The records the loop queues
+// from then on wait in its queues (8 s of room) while the recorder writes
+// the file's set-up, then its writer drains them.
+void Workbench::start_recording(const std::filesystem::path& file, const std::string& trainee) {
+  if (!loop_) throw std::logic_error("cannot record: no organ is loaded");
+  if (recorder_) throw std::logic_error("cannot record: a recording is running (" + recorder_->file().string() + ")");
+  if (suspended_) throw std::logic_error("cannot record during a replay; leave the replay first");
+  if (!loop_->model()) throw std::logic_error("cannot record: the loop has no session model");
+  record::SessionInfo info;
+  info.trainee = trainee;
+  info.organ = organ_.name;
+  if (scenario_) {
+    const std::filesystem::path sc = std::filesystem::absolute(scenario_->scenario.file);
+    info.scenario_file = sc.string();
+    std::ifstream in(sc, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    info.scenario_json = text.str();
+    info.force_limit = scenario_->scenario.task.force_limit;
+  }
+  const deform::MaterialArrays initial = materials();
+
+  // The snapshot: the loop's threads pause for it (milliseconds).
+  stop_discarding();
+  const auto paused = std::chrono::steady_clock::now();
+  loop_->stop();
+  haptics::TickRecord t;
+  haptics::CommandRecord c;
+  haptics::DeformRecord d;
+  // Records from before the recording are not part of it.
+  if (auto* q = loop_->tick_records())
+    while (q->pop(t)) {
+    }
+  if (auto* q = loop_->command_records())
+    while (q->pop(c)) {
+    }
+  if (auto* q = loop_->deform_records())
+    while (q->pop(d)) {
+    }
+  haptics::SessionState state;
+  std::vector<haptics::ProbeSetup> setups;
+  try {
+    state = loop_->snapshot();
+    setups = loop_->setups();
+  } catch (...) {
+    loop_->start();
+    start_discarding();
+    throw;
+  }
+  loop_->start();
+  record_pause_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - paused).count();
+
+  std::unique_ptr<record::Recorder> r;
+  try {
+    r = std::make_unique<record::Recorder>(file, *loop_->model(), initial, setups, info);
+    r->snapshot(state);
+  } catch (...) {
+    r.reset();
+    start_discarding();  // the records queued meanwhile are dropped with the rest
+    throw;
+  }
+  r->attach(*loop_);
+  recorder_ = std::move(r);
+  record_start_time_ = loop_time_;
+}
+
+std::filesystem::path Workbench::stop_recording() {
+  if (!recorder_) return {};
+  std::unique_ptr<record::Recorder> r = std::move(recorder_);
+  const std::filesystem::path file = r->file();
+  struct Resume {  // the discard thread takes the queues again, whatever happens
+    Workbench& w;
+    record::Recorder& r;
+    ~Resume() {
+      r.detach();
+      w.start_discarding();
+    }
+  };
+  {
+    Resume resume{*this, *r};
+    r->finish();  // throws RecordError when its writer failed
+  }
+  return file;
+}
+
+void Workbench::end_recording_quietly() noexcept {
+  try {
+    stop_recording();
+  } catch (...) {
+    recorder_.reset();
+  }
+}
+
+void Workbench::suspend() {
+  if (recorder_) throw std::logic_error("cannot replay while recording; stop the recording first");
+  if (suspended_ || !loop_) return;
+  loop_->stop();
+  suspended_ = true;
+}
+
+void Workbench::resume() {
+  if (!suspended_) return;
+  suspended_ = false;
+  if (!loop_) return;
+  for (const Probe& p : probes_) feed(p);
+  loop_->start();
 }
 
 bool Workbench::settled() const { return !loop_ || loop_->in_effect(last_ticket_); }

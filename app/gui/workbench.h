@@ -14,6 +14,14 @@
 // session): the dent and the other probes stay where they are. Only a new
 // organ builds a new loop.
 //
+// Recording (docs/RECORDING.md, "In the workbench"): every loop is built
+// with its record queues (LoopConfig::record_capacity); while nothing
+// records, a small thread of the workbench empties them, so they never
+// drop. start_recording() pauses the loop's threads for the moment a
+// snapshot takes (the loop itself, its tick count, dent and probes go on),
+// makes a record::Recorder that starts from that snapshot and attaches it
+// to the loop; stop_recording() finishes the file.
+//
 // A scenario (scenario::Resolved) is an organ with its session model: the
 // tissue map and the tissue field (lesions, pulses, breathing, dynamic
 // regions) ride on the loop's model, so the ticks feel them. A breathing
@@ -22,16 +30,19 @@
 
 #include "devices/loader.h"
 #include "haptics/loop.h"
+#include "record/recorder.h"
 #include "mesh/organ.h"
 #include "scenario/resolve.h"
 #include "tissue/tissue.h"
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <span>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace palpa::app {
@@ -194,6 +205,37 @@ class Workbench {
   /// Surface to rest (a command; the loop keeps running), every mouse probe lifted.
   void reset();
 
+  /// Starts recording the running loop into `file` (a new file; its folder
+  /// must exist) with `trainee` in its meta: the loop's threads stop for
+  /// the snapshot the recording starts from and go on (the same loop, tick
+  /// count, surface and probes); a record::Recorder then drains the loop's
+  /// record queues. Throws (nothing recorded, the loop running on)
+  /// record::RecordError naming the file, or std::logic_error without a
+  /// loop, while recording or while suspended.
+  void start_recording(const std::filesystem::path& file, const std::string& trainee);
+  /// Finishes the recording (drains, marks it finished) and returns its
+  /// file; no effect (empty path) when not recording. Throws RecordError
+  /// when its writer failed (the file then holds what was committed); the
+  /// recording has ended either way.
+  std::filesystem::path stop_recording();
+  bool recording() const { return recorder_ != nullptr; }
+  /// The file being recorded (empty when not recording).
+  std::filesystem::path recording_file() const;
+  /// The recorder's ticks committed and records dropped (zeros when not recording).
+  record::RecorderStats recording_stats() const;
+  /// Wall time the loop's threads were stopped for the latest recording's
+  /// snapshot, s (0 before any).
+  double record_pause() const { return record_pause_s_; }
+  /// s of loop time since the recording started (0 when not recording).
+  double recording_elapsed() const { return recorder_ ? loop_time_ - record_start_time_ : 0.0; }
+
+  /// Stops the loop's threads (devices get zero force; mouse probes are
+  /// not read) and resume() starts them again where they stopped: the
+  /// window's replay. suspend() throws std::logic_error while recording.
+  void suspend();
+  void resume();
+  bool suspended() const { return suspended_; }
+
   /// The running loop, or null (no organ or no probe).
   const haptics::HapticLoop* loop() const { return loop_.get(); }
   haptics::LoopView view() const;
@@ -223,6 +265,12 @@ class Workbench {
   Vec3 fed_tip(const Probe& p) const;
   // Stops the current loop and starts `next` (may be null) with `probes`.
   void install(std::unique_ptr<haptics::HapticLoop> next, std::vector<Probe>& probes);
+  // The thread that empties the loop's record queues while nothing records
+  // (their only consumer then; the recorder's writer is while recording).
+  void start_discarding();
+  void stop_discarding();
+  // Ends a recording without throwing (a new organ, the destructor).
+  void end_recording_quietly() noexcept;
   void feed(const Probe& p) const;
   int add(Probe p);
   static haptics::ForceParams force_params(const MaterialSettings& m);
@@ -243,6 +291,13 @@ class Workbench {
   std::vector<float> pulled_;  // pull_surface's copy of the mailbox (4 floats per vertex)
   double time_ = 0;
   double loop_time_ = 0;  // s, the loop clock's time of the latest tick read
+
+  std::unique_ptr<record::Recorder> recorder_;  // null: not recording
+  double record_start_time_ = 0;                // s, loop clock when the recording started
+  double record_pause_s_ = 0;                   // s, wall time the loop stopped for the snapshot
+  bool suspended_ = false;
+  std::thread discard_thread_;
+  std::atomic<bool> discard_stop_{false};
 };
 
 /// The core's material from the panel's settings.

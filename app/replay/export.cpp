@@ -25,8 +25,8 @@ void write_ticks_csv(const LoadedSession& s, const std::string& file) {
   out << "tick,time_s,probe,position_x_m,position_y_m,position_z_m,force_device_x_n,force_device_y_n,force_device_z_n,"
          "flags,world_x_m,world_y_m,world_z_m,force_x_n,force_y_n,force_z_n,contact_x_m,contact_y_m,contact_z_m,"
          "depth_m,in_contact\n";
-  const std::uint64_t n = s.file.header().ticks;
-  for (std::uint64_t w = 0; w < n; w += 20000) {
+  const std::uint64_t end = s.first_tick + s.file.header().ticks;
+  for (std::uint64_t w = s.first_tick; w < end; w += 20000) {
     const auto span = s.file.ticks(w, w + 20000);
     for (std::size_t k = 0; k < span.ticks.size(); ++k) {
       const auto& t = span.ticks[k];

@@ -114,9 +114,10 @@ int main(int argc, char** argv) {
         curve.back().second = std::max(curve.back().second, f);
     };
     // The stored results, or a replay when the file has none.
-    const bool stored = h.ticks > 0 && !s.file.ticks(0, 1).results.empty();
+    const std::uint64_t first_tick = s.first_tick;  // 0 unless recorded from a running loop
+    const bool stored = h.ticks > 0 && !s.file.ticks(first_tick, first_tick + 1).results.empty();
     if (stored) {
-      for (std::uint64_t w = 0; w < h.ticks; w += 20000) {
+      for (std::uint64_t w = first_tick; w < first_tick + h.ticks; w += 20000) {
         const auto span = s.file.ticks(w, w + 20000);
         if (span.ticks.empty() || span.results.size() != span.ticks.size()) break;
         for (std::size_t k = 0; k < span.ticks.size(); ++k)
@@ -124,7 +125,7 @@ int main(int argc, char** argv) {
       }
     } else if (h.ticks > 0) {
       app::ForceCheck check;
-      app::replay_session(s, 0, h.ticks, [&](const auto& t, auto r, const auto&) { add(t, r); }, check);
+      app::replay_session(s, first_tick, first_tick + h.ticks, [&](const auto& t, auto r, const auto&) { add(t, r); }, check);
       std::printf("(no results stored: replayed; %s)\n", app::describe(check).c_str());
     }
     assess::Report r = a.finish(s.file.events());

@@ -270,14 +270,15 @@ int run(const Options& o) {
     std::printf("nothing to replay\n");
     return 0;
   }
-  const double t0 = s.file.ticks(0, 1).ticks.front().time;
+  const std::uint64_t first = s.first_tick;  // 0 unless recorded from a running loop (the workbench)
+  const double t0 = s.file.ticks(first, first + 1).ticks.front().time;
   const double duration = static_cast<double>(h.ticks - 1) / rate;
   const bool render_frames = !o.video.empty() || !o.frames.empty();
   app::ForceCheck check;
 
   if (!render_frames) {
     const auto start = Clock::now();
-    app::replay_session(s, 0, h.ticks, nullptr, check);
+    app::replay_session(s, first, first + h.ticks, nullptr, check);
     const double wall = std::chrono::duration<double>(Clock::now() - start).count();
     std::printf("replay: %s (%.2f s, %.1fx real time)\n", app::describe(check).c_str(), wall, duration / wall);
     return check.identical ? 0 : 3;
@@ -286,8 +287,9 @@ int run(const Options& o) {
   // The scene (on this thread, which owns the GL context): the organ, the
   // probes, the lesions to show, the marks.
   const double to = std::min(o.to, duration);
-  const std::uint64_t from_tick = static_cast<std::uint64_t>(std::floor(o.from * rate));
-  const std::uint64_t to_tick = std::min<std::uint64_t>(h.ticks, static_cast<std::uint64_t>(std::floor(to * rate)) + 1);
+  const std::uint64_t from_tick = first + static_cast<std::uint64_t>(std::floor(o.from * rate));
+  const std::uint64_t to_tick =
+      std::min<std::uint64_t>(first + h.ticks, first + static_cast<std::uint64_t>(std::floor(to * rate)) + 1);
   const bool with_coverage = o.overlays.count("coverage") > 0;
   const bool with_levels = o.overlays.count("levels") > 0;
   render::OffscreenScene scene(o.width, o.height, o.gl);
@@ -372,7 +374,7 @@ int run(const Options& o) {
   std::vector<std::pair<double, double>> over_limit;
   std::vector<Vec3> axis(probe_count, Vec3::UnitZ());
   std::vector<double> snapshot_times;
-  for (const auto& snap : s.file.snapshots()) snapshot_times.push_back(static_cast<double>(snap.tick) / rate);
+  for (const auto& snap : s.file.snapshots()) snapshot_times.push_back(static_cast<double>(snap.tick - first) / rate);
   const std::size_t n = mesh->vertex_count();
   std::vector<float> sent(4 * n, 0.0f);  // the stream as the last packet left it (the view's starts at rest)
 
@@ -389,7 +391,7 @@ int run(const Options& o) {
   std::size_t frames = 0;
   double next_frame = o.from;
   const auto start = Clock::now();
-  const std::uint64_t replay_from = with_coverage ? 0 : from_tick;  // coverage needs every tick before the window
+  const std::uint64_t replay_from = with_coverage ? first : from_tick;  // coverage needs every tick before the window
   const int strip_h = std::max(80, o.height / 6), bar_h = 22;
   cv::Mat frame(o.height, o.width, CV_8UC3);  // the encoding stage's frame, reused
   std::vector<float> mirror(4 * n, 0.0f);     // the rendering stage's copy of the stream

@@ -6,6 +6,7 @@
 #include "scenario/scenario.h"
 #include "tissue/regions.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -51,6 +52,17 @@ LoadedSession load_session(const std::string& file) {
   s.task.force_limit = s.force_limit;
   s.initial = s.file.initial_materials();
   s.commands = s.file.commands(s.kept);
+  // A recording of a loop already running starts at its snapshot's tick.
+  if (h.ticks > 0 && s.file.ticks(0, 1).ticks.empty()) {
+    const auto snaps = s.file.snapshots();
+    if (snaps.empty())
+      throw std::runtime_error(file + ": its ticks do not start at tick 0 and it holds no snapshot to start from");
+    s.first_tick = snaps.front().tick;
+    for (const auto& snap : snaps) s.first_tick = std::min(s.first_tick, snap.tick);
+    if (s.file.ticks(s.first_tick, s.first_tick + 1).ticks.empty())
+      throw std::runtime_error(file + ": its first snapshot (tick " + std::to_string(s.first_tick) +
+                               ") is not where its ticks start");
+  }
   return s;
 }
 
@@ -70,7 +82,8 @@ void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to
                                              const deform::DeformableSurface&)>& each,
                     ForceCheck& check, std::uint64_t window) {
   const auto& h = s.file.header();
-  to = std::min<std::uint64_t>(to, h.ticks);
+  to = std::min<std::uint64_t>(to, s.first_tick + h.ticks);
+  from = std::max(from, s.first_tick);
   haptics::LoopReplay replay(s.model, s.initial, h.setups);
   // Seek: the latest snapshot at or before `from`.
   std::shared_ptr<const deform::MaterialArrays> pending;
@@ -112,6 +125,36 @@ void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to
       if (t.tick >= from && each) each(t, r, replay.surface());
     });
   }
+}
+
+assess::Report assess_session(const LoadedSession& s,
+                              const std::function<void(const haptics::TickRecord&,
+                                                       std::span<const haptics::ProbeTickResult>)>& each) {
+  const auto& h = s.file.header();
+  assess::Options opt;
+  opt.tip_radius = s.tip_radius;
+  opt.roi = s.roi;
+  assess::Assessor a(s.model->mesh, s.lesions, s.task, opt);
+  auto add = [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r) {
+    a.add(t, r);
+    if (each) each(t, r);
+  };
+  const std::uint64_t first = s.first_tick, end = s.first_tick + h.ticks;
+  const bool stored = h.ticks > 0 && !s.file.ticks(first, first + 1).results.empty();
+  if (stored) {
+    for (std::uint64_t w = first; w < end; w += 20000) {
+      const auto span = s.file.ticks(w, w + 20000);
+      if (span.ticks.empty() || span.results.size() != span.ticks.size()) break;
+      for (std::size_t k = 0; k < span.ticks.size(); ++k)
+        add(span.ticks[k], std::span<const haptics::ProbeTickResult>(span.results[k].data(), span.ticks[k].probe_count));
+    }
+  } else if (h.ticks > 0) {
+    ForceCheck check;
+    replay_session(s, first, end, [&](const auto& t, auto r, const auto&) { add(t, r); }, check);
+  }
+  assess::Report r = a.finish(s.file.events());
+  r.session_status = std::string(record::status_name(h.status));
+  return r;
 }
 
 std::string describe(const ForceCheck& c) {

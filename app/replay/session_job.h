@@ -35,12 +35,25 @@ struct LoadedSession {
   bool has_roi = false;                 ///< the scenario has a region named "roi"
   std::vector<float> roi;               ///< its weights per vertex (when has_roi)
   assess::Task task;                    ///< the scenario's task and scoring (defaults without one)
+  /// The first tick the file holds: 0, or for a session recorded from a
+  /// loop already running (the workbench's Record) the tick of the snapshot
+  /// it starts from. Its ticks are [first_tick, first_tick + header.ticks).
+  std::uint64_t first_tick = 0;
 };
 
 /// Opens `file` and rebuilds its model. Throws record::RecordError, or
 /// std::runtime_error naming the scenario when it no longer resolves or its
 /// organ is not the recorded mesh.
 LoadedSession load_session(const std::string& file);
+
+/// The assessment of a loaded session: its stored results, or a replay of
+/// it when the file has none (a recording of the live loop). `each` (may be
+/// empty) is called with every tick too; a throw from it ends the
+/// assessment (a caller's cancel). Throws what replay_session and the file
+/// throw.
+assess::Report assess_session(const LoadedSession& s,
+                              const std::function<void(const haptics::TickRecord&,
+                                                       std::span<const haptics::ProbeTickResult>)>& each = {});
 
 /// How the replayed forces compare with the recorded ones.
 struct ForceCheck {
@@ -55,7 +68,8 @@ struct ForceCheck {
 
 /// Re-runs the session from tick `from` (from the latest snapshot at or
 /// before it, else from tick 0; ticks before `from` are replayed but not
-/// passed on) to `to` (exclusive), calling `each` with the recorded tick,
+/// passed on; a session starting at a later first_tick starts from its
+/// snapshot there, with `from` and `to` clipped to its ticks) to `to` (exclusive), calling `each` with the recorded tick,
 /// the replayed results and the replayed surface. Compares forces
 /// (force_device always, force_world where stored) into `check`. Reads the
 /// file in windows of `window` ticks.
