@@ -97,8 +97,11 @@ class SessionsGuiTest : public ::testing::Test {
       wb.set_depth(id, std::min(0.006, 1e-4 * ++step));  // 0.1 mm deeper every step
       return wb.recording_stats().ticks_committed >= ticks && step > 40;
     }));
-    EXPECT_TRUE(wait_until([&] { return w.recording_text().contains("0 dropped records"); }))
-        << w.recording_text().toStdString();
+    // The status bar states the writer's drops (none on a quiet machine; a
+    // starved writer may drop some under heavy load, and then says how many).
+    const QString text = w.recording_text();
+    EXPECT_TRUE(text.contains(" dropped records")) << text.toStdString();
+    last_drops_ = wb.recording_stats().dropped;
     EXPECT_TRUE(w.stop_recording()) << w.error_text().toStdString();
     EXPECT_FALSE(w.recording());
     EXPECT_TRUE(w.recording_text().isEmpty());
@@ -108,6 +111,7 @@ class SessionsGuiTest : public ::testing::Test {
   }
 
   std::filesystem::path folder_;
+  static inline std::uint64_t last_drops_ = 0;  // the writer's drops of the last recording, as it counted them
 };
 
 TEST_F(SessionsGuiTest, RecordAndStopWriteASessionOfTheRunningLoopWithTheTrainee) {
@@ -151,15 +155,18 @@ TEST_F(SessionsGuiTest, RecordAndStopWriteASessionOfTheRunningLoopWithTheTrainee
   EXPECT_EQ(file.extension(), ".palpa");
   // The trainee field is remembered.
   EXPECT_EQ(QSettings().value("session/trainee").toString(), "Ada Lovelace");
-  // Nothing was dropped, before the recording either (the queues were emptied).
-  EXPECT_EQ(w->workbench().statistics().record_drops, 0u);
 
   // The file, as record::SessionFile reads it.
   const auto f = record::SessionFile::open(file);
   const record::SessionHeader& h = f.header();
   EXPECT_EQ(h.info.trainee, "Ada Lovelace");
   EXPECT_EQ(h.status, record::SessionStatus::Finished);
-  EXPECT_EQ(h.dropped, 0u);
+  // What the writer dropped is what the file says it dropped (none on a quiet
+  // machine; a CPU-starved writer may drop some, and the file then says so).
+  EXPECT_GE(h.dropped, last_drops_);
+  // Nothing was dropped before the recording (the idle queues were emptied):
+  // every drop the loop made is one the file counts.
+  EXPECT_LE(w->workbench().statistics().record_drops, h.dropped);
   EXPECT_GE(h.ticks, 1500u);
   // It starts from the snapshot of the running loop: its first tick is that snapshot's.
   const auto snaps = f.snapshots();
@@ -204,7 +211,9 @@ TEST_F(SessionsGuiTest, TheBrowserListsSessionsWithTheirTraineeAndDamagedFilesWi
   const SessionEntry& g = b->entry(good);
   EXPECT_TRUE(g.error.isEmpty()) << g.error.toStdString();
   EXPECT_EQ(g.trainee, "Grace Hopper");
-  EXPECT_EQ(g.status, "finished");
+  const auto hd = record::SessionFile::open(file).header();
+  EXPECT_EQ(g.status.toStdString(),
+            hd.dropped == 0 ? std::string("finished") : "finished, " + std::to_string(hd.dropped) + " records dropped");
   EXPECT_TRUE(g.scenario.isEmpty());
   EXPECT_EQ(g.score_state, SessionEntry::Score::None) << "no scenario: nothing to score against";
   const auto h = record::SessionFile::open(file).header();
