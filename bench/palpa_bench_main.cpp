@@ -22,6 +22,7 @@
 #include "mesh/io.h"
 #include "palpa_bench_cgal.h"
 #include "palpa_bench_path.h"
+#include "palpa_bench_replica.h"
 #include "palpa_bench_tissue.h"
 #include "palpa_bench_util.h"
 
@@ -78,6 +79,9 @@ struct Options {
   double organ_unit_m = 0;  // > 0: every organ file is in this unit (e.g. 1 for palpa-prep's output)
   bool spheres = true;
   bool tissue_map_only = false;
+  bool threaded = true;  // also the tick with the step on another thread (3 probes)
+  bool threaded_both = false;  // ... with both replicas stepped (before issue 8)
+  std::string only;      // only meshes whose name contains this
 };
 
 void print_usage() {
@@ -92,7 +96,10 @@ void print_usage() {
       "  --no-spheres       organs only\n"
       "  --ticks N          timed ticks per run (default 50000, quick 3000)\n"
       "  --seed N           trajectory seed (default 20240601)\n"
-      "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n",
+      "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n"
+      "  --threaded-both    the threaded run steps both replicas (as before issue 8) instead of level_with\n"
+      "  --no-threaded      skip the paced run with the deformation step on another thread\n"
+      "  --only TEXT        only the meshes whose name contains TEXT\n",
       PALPA_BENCH_SHARED_ORGANS_DIR);
 }
 
@@ -134,6 +141,12 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       if (auto e = number("--ticks", n)) return e;
       if (n < 100) return std::string("--ticks: at least 100 ticks are needed for percentiles");
       o.ticks = n;
+    } else if (a == "--threaded-both") {
+      o.threaded_both = true;
+    } else if (a == "--no-threaded") {
+      o.threaded = false;
+    } else if (a == "--only") {
+      if (!value(o.only)) return std::string("--only needs part of a mesh name");
     } else if (a == "--tissue-map") {
       o.tissue_map_only = true;
     } else if (a == "--seed") {
@@ -283,7 +296,21 @@ struct StepRow {
   double fraction = 0;
 };
 
+struct ReplicaRow {
+  std::string mesh;
+  std::size_t vertices = 0;
+  bench::ReplicaStepFigures f;
+};
+
+struct ThreadRow {
+  std::string mesh;
+  std::size_t vertices = 0;
+  bench::ThreadedFigures f;
+};
+
 struct Results {
+  std::vector<ReplicaRow> replicas;
+  std::vector<ThreadRow> threaded;
   std::vector<TickRow> ticks;
   std::vector<QueryRow> queries;
   std::vector<StepRow> steps;
@@ -418,6 +445,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     step_ns.reserve(plan.ticks);
     double active_sum = 0;
     std::size_t contact_ticks = 0, walk_ticks = 0;
+    std::vector<haptics::DeformRequest> requests;  // for the replica figures (3 probes)
     for (std::size_t k = 0; k < paths.ticks; ++k) {
       const double t = static_cast<double>(k) * kTickPeriod;
       for (int p = 0; p < probes; ++p) {
@@ -435,6 +463,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         }
       }
       if (due) {
+        if (probes == kMaxProbes) requests.push_back(session.core().request());
         const auto c = Clock::now();
         session.deform(session.core().request());
         const auto d = Clock::now();
@@ -458,6 +487,45 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["contact_fraction"] = tr.contact_fraction;
       r["walk_fraction"] = tr.walk_fraction;
       res.records.push_back(r);
+    }
+
+    // ---- The live loop's two replicas (issue 8): both stepped vs one step and a copy.
+    if (probes == kMaxProbes) {
+      ReplicaRow rr{mc.name, V, bench::measure_replica_steps(*model, requests, plan.warmup / kDeformEvery)};
+      std::printf("[%s] replica step, 3 probes: both stepped p50 %.3f p99 %.3f ms; step + level_with p50 %.3f p99 %.3f "
+                  "ms (step p50 %.3f, copy p50 %.3f; %.0f changed, %.0f active); replicas equal: %s\n",
+                  mc.name.c_str(), rr.f.both.p50_us * 1e-3, rr.f.both.p99_us * 1e-3, rr.f.level.p50_us * 1e-3,
+                  rr.f.level.p99_us * 1e-3, rr.f.level_step.p50_us * 1e-3, rr.f.level_copy.p50_us * 1e-3,
+                  rr.f.changed_mean, rr.f.active_mean, rr.f.equal ? "yes" : "NO");
+      json r = base;
+      r["suite"] = "replica_step";
+      r["probes"] = probes;
+      r["both"] = latency_json(rr.f.both);
+      r["level"] = latency_json(rr.f.level);
+      r["level_step"] = latency_json(rr.f.level_step);
+      r["level_copy"] = latency_json(rr.f.level_copy);
+      r["changed_mean"] = rr.f.changed_mean;
+      r["active_mean"] = rr.f.active_mean;
+      r["equal"] = rr.f.equal;
+      res.records.push_back(r);
+      res.replicas.push_back(rr);
+      if (opt.threaded) {
+        ThreadRow th{mc.name, V, bench::measure_threaded(model, paths, probes, plan.warmup, plan.ticks, !opt.threaded_both)};
+        std::printf("[%s] threaded (step on another thread, paced at 1 kHz), 3 probes: tick p50 %.3f p99 %.3f p99.9 "
+                    "%.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged)\n",
+                    mc.name.c_str(), th.f.tick.p50_us, th.f.tick.p99_us, th.f.tick.p999_us, th.f.step.p50_us * 1e-3,
+                    th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged);
+        json t = base;
+        t.update(latency_json(th.f.tick));
+        t["suite"] = "tick_threaded";
+        t["probes"] = probes;
+        t["step"] = latency_json(th.f.step);
+        t["steps"] = th.f.steps;
+        t["merged"] = th.f.merged;
+        res.records.push_back(t);
+        res.threaded.push_back(th);
+      }
+      std::fflush(stdout);
     }
 
     // ---- Steps: active set (timed inside the tick loop above) and full mesh.
@@ -765,6 +833,42 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock) {
               kStateBytes, kStateBytes, kStateBytes, kStateBytes, kStateBytes, kStateBytes, kStateBytes,
               kStateBytes);
 
+  // Replica steps and the threaded tick (issue 8).
+  std::printf("\n== Live loop's replicas, per deformation request, ms (3 probes; both = each replica steps, as "
+              "HapticLoop did before issue 8; level = one steps, the other copies what changed)\n");
+  std::printf("%-40s %9s %9s %9s %9s %9s %9s %9s %9s %6s  %s\n", "mesh", "vertices", "both p50", "both p99",
+              "level p50", "level p99", "step p50", "copy p50", "changed", "equal", "target");
+  for (const auto& x : r.replicas) {
+    std::string target;
+    if (x.mesh == "sphere-1M")
+      target = std::string("level <= 1 ms at p50 and p99: ") +
+               verdict(x.f.level.p50_us <= 1e3 && x.f.level.p99_us <= 1e3);
+    std::printf("%-40s %9zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.0f %6s  %s\n", x.mesh.c_str(), x.vertices,
+                x.f.both.p50_us * 1e-3, x.f.both.p99_us * 1e-3, x.f.level.p50_us * 1e-3, x.f.level.p99_us * 1e-3,
+                x.f.level_step.p50_us * 1e-3, x.f.level_copy.p50_us * 1e-3, x.f.changed_mean,
+                x.f.equal ? "yes" : "NO", target.c_str());
+  }
+  if (!r.threaded.empty()) {
+    std::printf("\n== Haptic tick with the deformation step on another thread (LoopCore::tick paced at 1 kHz; the "
+                "other thread steps one replica and levels the other, as HapticLoop), 3 probes, us\n");
+    std::printf("%-40s %9s %8s %8s %8s %8s %10s %10s %7s  %s\n", "mesh", "vertices", "p50", "p99", "p99.9", "max",
+                "step p50", "step p99", "merged", "target");
+    const ThreadRow* small = nullptr;
+    for (const auto& x : r.threaded)
+      if (x.mesh == "sphere-10k") small = &x;
+    for (const auto& x : r.threaded) {
+      char target[160] = "";
+      if (x.mesh == "sphere-1M") {
+        const double g = small ? x.f.tick.p99_us / small->f.tick.p99_us : 0;
+        std::snprintf(target, sizeof target, "p99 <= %.0f us %s; growth from 10k %.2fx %s", kTargetTickP99Us,
+                      verdict(x.f.tick.p99_us <= kTargetTickP99Us), g, verdict(small && g <= kTargetGrowth));
+      }
+      std::printf("%-40s %9zu %8.3f %8.3f %8.3f %8.2f %10.3f %10.3f %7zu  %s\n", x.mesh.c_str(), x.vertices,
+                  x.f.tick.p50_us, x.f.tick.p99_us, x.f.tick.p999_us, x.f.tick.max_us, x.f.step.p50_us * 1e-3,
+                  x.f.step.p99_us * 1e-3, x.f.merged, target);
+    }
+  }
+
   // Targets.
   std::printf("\n== Targets\n");
   const TickRow* t1m = tick_of("sphere-1M", 3);
@@ -859,6 +963,8 @@ int main(int argc, char** argv) {
       cases.push_back(c);
     }
     for (auto& c : organ_cases(opt.shared_dir, opt.organ_unit_m)) cases.push_back(c);
+    if (!opt.only.empty())
+      std::erase_if(cases, [&](const MeshCase& c) { return c.name.find(opt.only) == std::string::npos; });
   }
 
   // Measure each mesh in turn (one mesh in memory at a time).
