@@ -100,7 +100,7 @@ void print_usage() {
       "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n"
       "  --threaded-both    the threaded run steps both replicas (as before issue 8) instead of level_with\n"
       "  --no-threaded      skip the paced run with the deformation step on another thread\n"
-      "  --only TEXT        only the meshes whose name contains TEXT\n",
+      "  --only TEXT        only the meshes whose name contains TEXT (=NAME: only the mesh NAME)\n",
       PALPA_BENCH_SHARED_ORGANS_DIR);
 }
 
@@ -994,7 +994,9 @@ int main(int argc, char** argv) {
     }
     for (auto& c : organ_cases(opt.shared_dir, opt.organ_unit_m)) cases.push_back(c);
     if (!opt.only.empty())
-      std::erase_if(cases, [&](const MeshCase& c) { return c.name.find(opt.only) == std::string::npos; });
+      std::erase_if(cases, [&](const MeshCase& c) {
+        return opt.only[0] == '=' ? c.name != opt.only.substr(1) : c.name.find(opt.only) == std::string::npos;
+      });
   }
 
   // Measure each mesh in turn (one mesh in memory at a time).

@@ -394,6 +394,13 @@ void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3*
       if (!(flags_[j] & kVisited)) {
         flags_[j] |= kVisited;
         bfs_queue_.push_back(j);
+        // Visited a ring later: ask for what its visit reads now (no
+        // effect on results; on a 1M-vertex mesh these are cache misses).
+        __builtin_prefetch(pos.data() + j);
+        __builtin_prefetch(nrm.data() + j);
+        __builtin_prefetch(mesh_->vertex_neighbors.offsets.data() + j);
+        __builtin_prefetch(force_.data() + j, 1);
+        __builtin_prefetch(correction_.data() + j, 1);
       }
     }
   }
@@ -606,11 +613,25 @@ void DeformableSurface::step(double dt) {
       active[active_size_++] = i;
     }
   }
-  // Advance the active set, dropping the vertices that came to rest.
+  // Advance the active set, dropping the vertices that came to rest. What
+  // the vertex kAhead places on reads is asked for now (no effect on
+  // results): the active vertices are scattered over arrays larger than the
+  // cache, and one vertex's integration is too long for the processor to
+  // reach the next one's loads by itself.
   Sweep sweep(*this, dt);
   const std::size_t n = active_size_;
   std::size_t kept = 0;
+  constexpr std::size_t kAhead = 6;
   for (std::size_t k = 0; k < n; ++k) {
+    if (k + kAhead < n) {
+      const Index a = active[k + kAhead];
+      __builtin_prefetch(sweep.state + a, 1);
+      __builtin_prefetch(sweep.force + a);
+      __builtin_prefetch(sweep.correction + a);
+      __builtin_prefetch(sweep.integrator_of + a);
+      __builtin_prefetch(sweep.stream + 4 * static_cast<std::size_t>(a), 1);
+      __builtin_prefetch(sweep.limit + a);
+    }
     const Index i = active[k];
     if (sweep.advance(i)) active[kept++] = i;
   }
