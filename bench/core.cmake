@@ -19,6 +19,8 @@ add_executable(palpa-bench
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_main.cpp
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_util.cpp
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_path.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_replica.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_meshes.cpp
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_tissue.cpp)
 target_link_libraries(palpa-bench PRIVATE palpa::haptics palpa::collision palpa::deform palpa::mesh palpa::tissue
   opencv_core opencv_imgcodecs palpa_bench_cgal nlohmann_json::nlohmann_json palpa_warnings)

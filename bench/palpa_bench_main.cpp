@@ -21,7 +21,9 @@
 #include "mesh/generate.h"
 #include "mesh/io.h"
 #include "palpa_bench_cgal.h"
+#include "palpa_bench_meshes.h"
 #include "palpa_bench_path.h"
+#include "palpa_bench_replica.h"
 #include "palpa_bench_tissue.h"
 #include "palpa_bench_util.h"
 
@@ -78,6 +80,9 @@ struct Options {
   double organ_unit_m = 0;  // > 0: every organ file is in this unit (e.g. 1 for palpa-prep's output)
   bool spheres = true;
   bool tissue_map_only = false;
+  bool threaded = true;  // also the tick with the step on another thread (3 probes)
+  bool threaded_both = false;  // ... with both replicas stepped (before issue 8)
+  std::string only;      // only meshes whose name contains this
 };
 
 void print_usage() {
@@ -92,7 +97,10 @@ void print_usage() {
       "  --no-spheres       organs only\n"
       "  --ticks N          timed ticks per run (default 50000, quick 3000)\n"
       "  --seed N           trajectory seed (default 20240601)\n"
-      "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n",
+      "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n"
+      "  --threaded-both    the threaded run steps both replicas (as before issue 8) instead of level_with\n"
+      "  --no-threaded      skip the paced run with the deformation step on another thread\n"
+      "  --only TEXT        only the meshes whose name contains TEXT (=NAME: only the mesh NAME)\n",
       PALPA_BENCH_SHARED_ORGANS_DIR);
 }
 
@@ -134,6 +142,12 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       if (auto e = number("--ticks", n)) return e;
       if (n < 100) return std::string("--ticks: at least 100 ticks are needed for percentiles");
       o.ticks = n;
+    } else if (a == "--threaded-both") {
+      o.threaded_both = true;
+    } else if (a == "--no-threaded") {
+      o.threaded = false;
+    } else if (a == "--only") {
+      if (!value(o.only)) return std::string("--only needs part of a mesh name");
     } else if (a == "--tissue-map") {
       o.tissue_map_only = true;
     } else if (a == "--seed") {
@@ -188,6 +202,7 @@ struct MeshCase {
   std::string name;
   std::string source;            // "make_sphere" or the file name
   std::size_t sphere_target = 0; // > 0: generated sphere
+  std::string generator;         // "fan" or "sliver": the sphere made hard on the contact query
   fs::path file;                 // organ file
   double unit_m = 1.0;           // organ file unit, m
 };
@@ -283,7 +298,21 @@ struct StepRow {
   double fraction = 0;
 };
 
+struct ReplicaRow {
+  std::string mesh;
+  std::size_t vertices = 0;
+  bench::ReplicaStepFigures f;
+};
+
+struct ThreadRow {
+  std::string mesh;
+  std::size_t vertices = 0;
+  bench::ThreadedFigures f;
+};
+
 struct Results {
+  std::vector<ReplicaRow> replicas;
+  std::vector<ThreadRow> threaded;
   std::vector<TickRow> ticks;
   std::vector<QueryRow> queries;
   std::vector<StepRow> steps;
@@ -349,7 +378,12 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
   // Build the mesh, our tree, CGAL's tree and the deformable surface.
   auto t0 = Clock::now();
   std::shared_ptr<mesh::SurfaceMesh> m;
-  if (mc.sphere_target) {
+  if (mc.generator == "fan") {
+    // 40 fans of hundreds of thin triangles each (15 mm disks; about 22% of the sphere).
+    m = std::make_shared<mesh::SurfaceMesh>(bench::make_fan_sphere(mc.sphere_target, kSphereRadius, 40, 0.015));
+  } else if (mc.generator == "sliver") {
+    m = std::make_shared<mesh::SurfaceMesh>(bench::make_sliver_sphere(mc.sphere_target, kSphereRadius));
+  } else if (mc.sphere_target) {
     m = std::make_shared<mesh::SurfaceMesh>(mesh::make_sphere(mc.sphere_target, kSphereRadius));
   } else {
     mesh::LoadOptions lo;
@@ -418,6 +452,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     step_ns.reserve(plan.ticks);
     double active_sum = 0;
     std::size_t contact_ticks = 0, walk_ticks = 0;
+    std::vector<haptics::DeformRequest> requests;  // for the replica figures (3 probes)
     for (std::size_t k = 0; k < paths.ticks; ++k) {
       const double t = static_cast<double>(k) * kTickPeriod;
       for (int p = 0; p < probes; ++p) {
@@ -435,6 +470,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         }
       }
       if (due) {
+        if (probes == kMaxProbes) requests.push_back(session.core().request());
         const auto c = Clock::now();
         session.deform(session.core().request());
         const auto d = Clock::now();
@@ -458,6 +494,45 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["contact_fraction"] = tr.contact_fraction;
       r["walk_fraction"] = tr.walk_fraction;
       res.records.push_back(r);
+    }
+
+    // ---- The live loop's two replicas (issue 8): both stepped vs one step and a copy.
+    if (probes == kMaxProbes) {
+      ReplicaRow rr{mc.name, V, bench::measure_replica_steps(*model, requests, 100)};
+      std::printf("[%s] replica step, 3 probes: both stepped p50 %.3f p99 %.3f ms; step + level_with p50 %.3f p99 %.3f "
+                  "ms (step p50 %.3f, copy p50 %.3f; %.0f changed, %.0f active); replicas equal: %s\n",
+                  mc.name.c_str(), rr.f.both.p50_us * 1e-3, rr.f.both.p99_us * 1e-3, rr.f.level.p50_us * 1e-3,
+                  rr.f.level.p99_us * 1e-3, rr.f.level_step.p50_us * 1e-3, rr.f.level_copy.p50_us * 1e-3,
+                  rr.f.changed_mean, rr.f.active_mean, rr.f.equal ? "yes" : "NO");
+      json r = base;
+      r["suite"] = "replica_step";
+      r["probes"] = probes;
+      r["both"] = latency_json(rr.f.both);
+      r["level"] = latency_json(rr.f.level);
+      r["level_step"] = latency_json(rr.f.level_step);
+      r["level_copy"] = latency_json(rr.f.level_copy);
+      r["changed_mean"] = rr.f.changed_mean;
+      r["active_mean"] = rr.f.active_mean;
+      r["equal"] = rr.f.equal;
+      res.records.push_back(r);
+      res.replicas.push_back(rr);
+      if (opt.threaded) {
+        ThreadRow th{mc.name, V, bench::measure_threaded(model, paths, probes, plan.warmup, plan.ticks, !opt.threaded_both)};
+        std::printf("[%s] threaded (step on another thread, paced at 1 kHz), 3 probes: tick p50 %.3f p99 %.3f p99.9 "
+                    "%.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged)\n",
+                    mc.name.c_str(), th.f.tick.p50_us, th.f.tick.p99_us, th.f.tick.p999_us, th.f.step.p50_us * 1e-3,
+                    th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged);
+        json t = base;
+        t.update(latency_json(th.f.tick));
+        t["suite"] = "tick_threaded";
+        t["probes"] = probes;
+        t["step"] = latency_json(th.f.step);
+        t["steps"] = th.f.steps;
+        t["merged"] = th.f.merged;
+        res.records.push_back(t);
+        res.threaded.push_back(th);
+      }
+      std::fflush(stdout);
     }
 
     // ---- Steps: active set (timed inside the tick loop above) and full mesh.
@@ -710,6 +785,13 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock) {
       }
       target = buf;
     }
+    if (t.mesh == "fan-sphere-1M" || t.mesh == "sliver-sphere-1M")
+      if (const TickRow* even = tick_of("sphere-1M", t.probes)) {
+        char buf[120];
+        const double x = t.tick.p99_us / even->tick.p99_us;
+        std::snprintf(buf, sizeof buf, "p99 %.2fx sphere-1M's <= 2x %s", x, verdict(x <= 2.0));
+        target = buf;
+      }
     std::printf("%-40s %9zu %6d %8.3f %8.3f %8.3f %8.2f %7.0f%% %5.0f%%  %s\n", t.mesh.c_str(), t.vertices,
                 t.probes, t.tick.p50_us, t.tick.p99_us, t.tick.p999_us, t.tick.max_us, 100 * t.contact_fraction,
                 100 * t.walk_fraction, target.c_str());
@@ -764,6 +846,48 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock) {
               "counts %d B read + %d B written per vertex. of copy = step GB/s / copy GB/s.\n\n",
               kStateBytes, kStateBytes, kStateBytes, kStateBytes, kStateBytes, kStateBytes, kStateBytes,
               kStateBytes);
+
+  // Replica steps and the threaded tick (issue 8).
+  std::printf("\n== Live loop's replicas, per deformation request, ms (3 probes; both = each replica steps, as "
+              "HapticLoop did before issue 8; level = one steps, the other copies what changed)\n");
+  std::printf("%-40s %9s %9s %9s %9s %9s %9s %9s %9s %6s  %s\n", "mesh", "vertices", "both p50", "both p99",
+              "level p50", "level p99", "step p50", "copy p50", "changed", "equal", "target");
+  for (const auto& x : r.replicas) {
+    std::string target;
+    if (x.mesh == "sphere-1M")
+      target = std::string("level <= 1 ms at p50 and p99: ") +
+               verdict(x.f.level.p50_us <= 1e3 && x.f.level.p99_us <= 1e3);
+    std::printf("%-40s %9zu %9.3f %9.3f %9.3f %9.3f %9.3f %9.3f %9.0f %6s  %s\n", x.mesh.c_str(), x.vertices,
+                x.f.both.p50_us * 1e-3, x.f.both.p99_us * 1e-3, x.f.level.p50_us * 1e-3, x.f.level.p99_us * 1e-3,
+                x.f.level_step.p50_us * 1e-3, x.f.level_copy.p50_us * 1e-3, x.f.changed_mean,
+                x.f.equal ? "yes" : "NO", target.c_str());
+  }
+  if (!r.threaded.empty()) {
+    std::printf("\n== Haptic tick with the deformation step on another thread (LoopCore::tick paced at 1 kHz; the "
+                "other thread steps one replica and levels the other, as HapticLoop), 3 probes, us\n");
+    std::printf("%-40s %9s %8s %8s %8s %8s %10s %10s %7s  %s\n", "mesh", "vertices", "p50", "p99", "p99.9", "max",
+                "step p50", "step p99", "merged", "target");
+    const ThreadRow* small = nullptr;
+    for (const auto& x : r.threaded)
+      if (x.mesh == "sphere-10k") small = &x;
+    for (const auto& x : r.threaded) {
+      char target[160] = "";
+      if (x.mesh == "sphere-1M") {
+        const double g = small ? x.f.tick.p99_us / small->f.tick.p99_us : 0;
+        std::snprintf(target, sizeof target, "p99 <= %.0f us %s; growth from 10k %.2fx %s", kTargetTickP99Us,
+                      verdict(x.f.tick.p99_us <= kTargetTickP99Us), g, verdict(small && g <= kTargetGrowth));
+      }
+      const ThreadRow* even = nullptr;
+      for (const auto& y : r.threaded)
+        if (y.mesh == "sphere-1M") even = &y;
+      if ((x.mesh == "fan-sphere-1M" || x.mesh == "sliver-sphere-1M") && even)
+        std::snprintf(target, sizeof target, "p99 %.2fx sphere-1M's <= 2x %s", x.f.tick.p99_us / even->f.tick.p99_us,
+                      verdict(x.f.tick.p99_us <= 2 * even->f.tick.p99_us));
+      std::printf("%-40s %9zu %8.3f %8.3f %8.3f %8.2f %10.3f %10.3f %7zu  %s\n", x.mesh.c_str(), x.vertices,
+                  x.f.tick.p50_us, x.f.tick.p99_us, x.f.tick.p999_us, x.f.tick.max_us, x.f.step.p50_us * 1e-3,
+                  x.f.step.p99_us * 1e-3, x.f.merged, target);
+    }
+  }
 
   // Targets.
   std::printf("\n== Targets\n");
@@ -858,7 +982,21 @@ int main(int argc, char** argv) {
       c.sphere_target = n;
       cases.push_back(c);
     }
+    // Issue 8: as many vertices as the 1M sphere, with high-valence fans or slivers.
+    for (const char* g : {"fan", "sliver"}) {
+      if (!opt.spheres) break;
+      MeshCase c;
+      c.name = std::string(g) + "-sphere-1M";
+      c.source = std::string("make_") + g + "_sphere";
+      c.sphere_target = 1'000'000;
+      c.generator = g;
+      cases.push_back(c);
+    }
     for (auto& c : organ_cases(opt.shared_dir, opt.organ_unit_m)) cases.push_back(c);
+    if (!opt.only.empty())
+      std::erase_if(cases, [&](const MeshCase& c) {
+        return opt.only[0] == '=' ? c.name != opt.only.substr(1) : c.name.find(opt.only) == std::string::npos;
+      });
   }
 
   // Measure each mesh in turn (one mesh in memory at a time).

@@ -287,11 +287,16 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
     return none;
   const bool neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
   Index t = start, previous = kNoIndex;
-  for (int step = 0; step < kMaxWalkSteps; ++step) {
+  // Steps: kMaxWalkSteps in all, except those that turn around a vertex of
+  // valence above kFanValence (the edge crossed shares that vertex with the
+  // edge crossed before), which count towards kMaxFanSteps instead.
+  int steps = 0, fan_steps = 0;
+  Index edge_a = kNoIndex, edge_b = kNoIndex;  // the edge crossed last
+  for (bool first = true;; first = false) {
     if (frame.mesh != &mesh || frame.triangle != t) make_frame(mesh, t, frame);
     const TriangleFrame& f = frame;
     // Jump test on the start triangle: moved farther than its longest edge.
-    if (step == 0 && max_move_from) {
+    if (first && max_move_from) {
       const double longest_sq = std::max({f.a11, f.a22, f.e3_sq});
       if (!((probe - *max_move_from).squaredNorm() <= longest_sq)) return none;
     }
@@ -316,13 +321,17 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
     // Outside: step across the edge opposite the most negative weight; a
     // step straight back means the solution sits in no triangle here.
     const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
-    const Index next = neighbors ? mesh.triangle_neighbors[t][k]
-                                 : across_edge(mesh, t, f.corners[(k + 1) % 3], f.corners[(k + 2) % 3]);
+    const Index c1 = f.corners[(k + 1) % 3], c2 = f.corners[(k + 2) % 3];
+    const Index next = neighbors ? mesh.triangle_neighbors[t][k] : across_edge(mesh, t, c1, c2);
     if (next == kNoIndex || next == previous) return none;
+    const Index pivot = c1 == edge_a || c1 == edge_b ? c1 : (c2 == edge_a || c2 == edge_b ? c2 : kNoIndex);
+    const bool fan = pivot != kNoIndex && mesh.vertex_triangles.row(pivot).size() > kFanValence;
+    if (fan ? ++fan_steps > kMaxFanSteps : ++steps >= kMaxWalkSteps) return none;
+    edge_a = c1;
+    edge_b = c2;
     previous = t;
     t = next;
   }
-  return none;
 }
 
 }  // namespace
@@ -339,7 +348,9 @@ SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& pro
   // when some point of theirs could be nearer than the answer so far. The
   // distances of the triangles seen are kept (in visit order) so that no
   // distance is computed twice; past kSeen triangles they are recomputed.
-  constexpr std::size_t kSeen = 128;
+  // 1024: a vertex where hundreds of thin triangles meet is searched in one
+  // pass (past kSeen each distance is computed twice); 12 KB of stack.
+  constexpr std::size_t kSeen = 1024;
   std::array<Index, kSeen> seen_t;
   std::array<double, kSeen> seen_d2;
   std::size_t n_seen = 0;

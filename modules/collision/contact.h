@@ -28,13 +28,22 @@ SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& pro
 
 /// Most triangles the in-contact walk visits before it gives up.
 inline constexpr int kMaxWalkSteps = 6;
+/// Where more than kFanValence triangles meet at a vertex, the walk's steps
+/// that turn around it (across consecutive edges sharing it) do not count
+/// towards kMaxWalkSteps but towards kMaxFanSteps: a probe sliding near a
+/// fan of hundreds of thin triangles crosses many of them in one tick, and
+/// without this the walk gave up and the tree's answer searched the whole
+/// fan (tens of microseconds).
+inline constexpr std::size_t kFanValence = 12;
+inline constexpr int kMaxFanSteps = 64;
 
 /// The in-contact walk: solves the interpolated-normal equation on
 /// `start_triangle` (the last contact triangle) and, while the solution lies
 /// outside the triangle, steps across the edge opposite the most negative
 /// barycentric weight (at most kMaxWalkSteps triangles; the neighbour across
 /// an edge comes from mesh.triangle_neighbors, or from mesh.vertex_triangles
-/// when that table is absent). It answers only when it ends
+/// when that table is absent; steps around a high-valence vertex count
+/// towards kMaxFanSteps instead). It answers only when it ends
 /// inside a triangle (weights within 1e-9 of [0, 1]) with the probe below
 /// the undeformed surface (offset < 0) and within half the focal distance
 /// there, |offset| * kappa <= 1/2, where kappa (1/m) is the largest rate at

@@ -218,6 +218,29 @@ class DeformableSurface {
   /// Vertices integrated by step() now.
   std::size_t active_count() const { return active_size_; }
 
+  /// Replicas (the live loop's two copies of one surface). Every vertex whose
+  /// state, field, flags or stream entry a step, reset, set_state or restore
+  /// may have changed is remembered (each once) until the next level_with
+  /// that reads this surface or clear_changes().
+  ///
+  /// Makes this surface equal to `source` by copying only what `source`
+  /// changed since it was last level with this one: the remembered vertices'
+  /// states, fields and stream entries, and the small lists (active set,
+  /// field vertices, contacts, time, drive values); then forgets source's
+  /// changes. The whole arrays are copied when source changed everything
+  /// (set_state, restore) or most vertices. The caller guarantees that the
+  /// two were level before source changed and that both got the same
+  /// material edits (materials are not copied). Stream entries that change
+  /// here are marked dirty in this surface. Afterwards every query on this
+  /// surface gives the bits `source` gives. Throws std::invalid_argument when
+  /// source has another mesh object. Allocates nothing once its lists have
+  /// grown to source's.
+  void level_with(DeformableSurface& source);
+  /// Forgets the changes remembered so far (both replicas are known level).
+  void clear_changes();
+  /// Vertices remembered as changed (all of them after set_state or restore).
+  std::size_t changed_count() const { return all_changed_ ? mesh_->vertex_count() : changed_size_; }
+
   /// The (nx, ny, nz, h) float32 stream of section IV, 4 floats per vertex:
   /// normal correction and height (m).
   std::span<const float> stream() const { return stream_; }
@@ -250,6 +273,12 @@ class DeformableSurface {
   double field_depth(const Contact& c) const;
   void write_stream(Index i);
   void mark_dirty(Index i);
+  void note_changed(Index i) {
+    if (flags_[i] & kChangedFlag) return;
+    flags_[i] |= kChangedFlag;
+    changed_[changed_size_++] = i;
+  }
+  static constexpr std::uint8_t kChangedFlag = 1u << 4;
   static MaterialKey key_of(const Material& m);
   Index intern_material(const Material& m);
   void build_integrators(const MaterialArrays& materials);
@@ -283,6 +312,9 @@ class DeformableSurface {
   std::vector<Index> dirty_;          // changed since take_dirty_ranges (flag bit 3): first dirty_size_ entries
   std::size_t dirty_size_ = 0;
   bool all_dirty_ = true;             // every vertex changed (new surface or set_state)
+  std::vector<Index> changed_;        // for level_with (flag bit 4): first changed_size_ entries
+  std::size_t changed_size_ = 0;
+  bool all_changed_ = false;          // set_state or restore: level_with copies everything
 };
 
 }  // namespace palpa::deform

@@ -462,6 +462,7 @@ void HapticLoop::restore(const SessionState& st) {
     apply_material_source(*r, st.materials);
     r->restore(st.surface, st.contacts);
     r->take_dirty_ranges();
+    r->clear_changes();  // level: the next step copies only what it changes
   }
   core_->set_state(st.core);
   tick_ = st.tick;
@@ -516,9 +517,12 @@ std::vector<IndexRange> HapticLoop::take_surface_changes(std::vector<float>& str
   return out;
 }
 
-// Makes one requested step on both replicas: the one the haptic thread is
-// not reading first, published, then the other once the haptic thread has
-// left it. `stopping`: the threads are gone (no waiting).
+// Makes one requested step: on the replica the haptic thread is not
+// reading, published; then, once the haptic thread has left the other one,
+// that one gets the request's edits (materials are not copied) and is
+// brought level by copying only the vertices the step changed
+// (DeformableSurface::level_with): the step runs once, and the copy touches
+// what changed. `stopping`: the threads are gone (no waiting).
 void HapticLoop::process(const DeformRequest& r, bool stopping) {
   const std::int64_t t0 = clock_->now_ns();
   const int cur = current_.load(std::memory_order_seq_cst);
@@ -540,7 +544,8 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   // Wait until the haptic thread has left the old replica, then bring it level.
   if (!stopping)
     while (in_use_.load(std::memory_order_seq_cst) == cur) nap_us(20);
-  apply_deform_request(*replicas_[cur], r, contact_scratch_, field_of());
+  apply_deform_edits(*replicas_[cur], r.edits);
+  replicas_[cur]->level_with(*replicas_[other]);
   replicas_[cur]->take_dirty_ranges();
   meta_[cur] = meta_[other];
   deform_hist_.record(clock_->now_ns() - t0);

@@ -8,7 +8,9 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <array>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <string>
 #include <vector>
@@ -523,6 +525,103 @@ TEST(HeightCheck, AnExistingContactHoldsWhileBelowTheRestSurface) {
   // Below the deformed surface it is a contact either way.
   EXPECT_TRUE(height_check(at(-0.002), Vec3::Constant(-0.001), true).in_contact);
   EXPECT_TRUE(height_check(at(-0.002), Vec3::Constant(-0.001), false).in_contact);
+}
+
+}  // namespace
+}  // namespace palpa::collision
+
+namespace palpa::collision {
+namespace {
+
+// A flat grid (normals +z) whose triangles touching the disk of `radius`
+// around the centre vertex are replaced by a fan of thin triangles meeting
+// there (one per boundary edge of the hole: its valence).
+mesh::SurfaceMesh fan_plane(int n, double spacing, double radius, Index& centre) {
+  const mesh::SurfaceMesh g = mesh::make_plane(n, n, spacing);
+  centre = nearest_brute_force(g.positions, Vec3::Zero()).vertex;
+  std::vector<char> in(g.vertex_count(), 0);
+  for (Index v = 0; v < g.vertex_count(); ++v) in[v] = (g.positions[v] - g.positions[centre]).norm() < radius;
+  mesh::SurfaceMesh out;
+  out.positions = g.positions;
+  std::vector<std::array<Index, 2>> removed;
+  for (const auto& t : g.triangles) {
+    if (!in[t[0]] && !in[t[1]] && !in[t[2]]) {
+      out.triangles.push_back(t);
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) removed.push_back({t[k], t[(k + 1) % 3]});
+  }
+  for (const auto& e : removed) {
+    bool inner = false;
+    for (const auto& o : removed) inner = inner || (o[0] == e[1] && o[1] == e[0]);
+    if (!inner) out.triangles.push_back({e[0], e[1], centre});
+  }
+  // Drop the vertices the fan left unused.
+  std::vector<Index> remap(out.positions.size(), kNoIndex);
+  std::vector<Vec3> kept;
+  for (auto& t : out.triangles)
+    for (Index& v : t) {
+      if (remap[v] == kNoIndex) {
+        remap[v] = static_cast<Index>(kept.size());
+        kept.push_back(out.positions[v]);
+      }
+      v = remap[v];
+    }
+  centre = remap[centre];
+  out.positions = kept;
+  mesh::finalize(out);
+  return out;
+}
+
+TEST(ContactWalk, GoesAroundAHighValenceVertexWithTheAnswerOfBruteForce) {
+  Index centre = kNoIndex;
+  const mesh::SurfaceMesh m = fan_plane(81, 0.001, 0.02, centre);
+  const std::size_t valence = m.vertex_triangles.row(centre).size();
+  ASSERT_GT(valence, 100u);
+  // Probes 1 mm below the plane sliding around the centre at several radii:
+  // each tick's walk starts from the last answer's triangle and crosses many
+  // thin fan triangles; it must answer, with brute force's triangle and point.
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::size_t walked = 0, queries = 0;
+  for (int path = 0; path < 20; ++path) {
+    const double rho = 0.0005 + 0.012 * u(rng);
+    double angle = 2 * std::numbers::pi * u(rng);
+    const double turn = (u(rng) < 0.5 ? -1 : 1) * (0.02 + 0.25 * u(rng));  // rad per tick: up to ~25 fan triangles
+    Vec3 probe(rho * std::cos(angle), rho * std::sin(angle), -0.001);
+    probe += m.positions[centre];
+    SurfacePoint last = full_query(m, probe);
+    ASSERT_TRUE(last.inside);
+    for (int tick = 0; tick < 30; ++tick) {
+      angle += turn;
+      const Vec3 next = m.positions[centre] + Vec3(rho * std::cos(angle), rho * std::sin(angle), -0.001);
+      const SurfacePoint got = walk_surface_point(m, next, last.triangle);
+      const SurfacePoint want = full_query(m, next);
+      ++queries;
+      ASSERT_NE(got.triangle, kNoIndex) << "path " << path << " tick " << tick << " radius " << rho;
+      ++walked;
+      EXPECT_LE((got.point - want.point).norm(), 1e-12) << "path " << path << " tick " << tick;
+      EXPECT_NEAR(got.offset, want.offset, 1e-12);
+      last = got;
+    }
+  }
+  EXPECT_EQ(walked, queries);
+}
+
+TEST(ContactWalk, LocateAroundAHighValenceVertexFindsTheTriangleUnderTheProbe) {
+  Index centre = kNoIndex;
+  const mesh::SurfaceMesh m = fan_plane(81, 0.001, 0.02, centre);
+  ASSERT_GT(m.vertex_triangles.row(centre).size(), 100u);
+  // Every fan triangle's centroid, 1 mm below: located from the centre
+  // vertex, the answer is that triangle (brute force over all triangles).
+  for (Index t : m.vertex_triangles.row(centre)) {
+    Vec3 c = Vec3::Zero();
+    for (Index v : m.triangles[t]) c += m.positions[v] / 3;
+    const SurfacePoint got = locate_surface_point(m, c - Vec3(0, 0, 0.001), centre);
+    ASSERT_TRUE(got.inside) << "triangle " << t;
+    EXPECT_EQ(got.triangle, t);
+    EXPECT_LE((got.point - c).norm(), 1e-12);
+  }
 }
 
 }  // namespace

@@ -292,6 +292,178 @@ TEST(Surface, ActiveSetStepEqualsFullStep) {
   }
 }
 
+// A seeded random sequence of contact sets on a sphere of radius R: 0 to 3
+// contacts of every shape kind, random points, depths (some negative) and
+// radii, held for a few steps each, with empty stretches so vertices come to
+// rest and leave the active set.
+std::vector<std::vector<Contact>> random_frames(const SurfaceMesh& m, double R, unsigned seed, int count) {
+  std::uint64_t x = seed * 0x9e3779b97f4a7c15ull + 1;
+  auto uniform = [&x] {
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    return static_cast<double>(x >> 11) * 0x1.0p-53;
+  };
+  std::vector<std::vector<Contact>> frames;
+  while (static_cast<int>(frames.size()) < count) {
+    std::vector<Contact> set;
+    const int n = uniform() < 0.25 ? 0 : 1 + static_cast<int>(uniform() * 3);
+    for (int k = 0; k < n; ++k) {
+      const Vec3 dir(2 * uniform() - 1, 2 * uniform() - 1, 2 * uniform() - 1);
+      const auto kind = static_cast<ShapeKind>(static_cast<int>(uniform() * 3) % 3);
+      const double depth = (uniform() < 0.1 ? -1 : 1) * 0.006 * uniform();
+      set.push_back(sphere_contact(m, R, dir.norm() > 1e-3 ? dir : Vec3::UnitZ(), depth, kind, 0.01 + 0.03 * uniform()));
+    }
+    const int hold = 1 + static_cast<int>(uniform() * (n == 0 ? 30 : 6));
+    for (int h = 0; h < hold; ++h) frames.push_back(set);
+  }
+  return frames;
+}
+
+// Every query the haptic tick and the view make gives the same bits on both.
+void expect_level(const DeformableSurface& a, const DeformableSurface& b, const std::string& where) {
+  ASSERT_TRUE(same_bits(a.state(), b.state())) << where;
+  ASSERT_TRUE(same_bits(a.stream(), b.stream())) << where;
+  ASSERT_EQ(a.active_count(), b.active_count()) << where;
+  ASSERT_EQ(a.contacts().size(), b.contacts().size()) << where;
+  for (Index i = 0; i < a.mesh().vertex_count(); ++i) {
+    const double fa = a.field_force(i), fb = b.field_force(i);
+    ASSERT_EQ(std::memcmp(&fa, &fb, sizeof fa), 0) << where << ", force of vertex " << i;
+    const Vec3 ca = a.normal_correction(i), cb = b.normal_correction(i);
+    ASSERT_EQ(std::memcmp(ca.data(), cb.data(), sizeof(double) * 3), 0) << where << ", correction of vertex " << i;
+  }
+}
+
+TEST(Surface, ActiveSetStepEqualsFullStepOnRandomContactSequences) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(3000, R);
+  for (unsigned seed : {1u, 2u, 3u}) {
+    DeformableSurface active(m, mixed_materials(*m));
+    DeformableSurface full(m, mixed_materials(*m));
+    const auto frames = random_frames(*m, R, seed, 300);
+    for (std::size_t n = 0; n < frames.size(); ++n) {
+      const double dt = n % 7 == 0 ? 2e-3 : 1e-3;
+      active.set_contacts(frames[n]);
+      full.set_contacts(frames[n]);
+      active.step(dt);
+      full.step_full(dt);
+      expect_level(active, full, "seed " + std::to_string(seed) + ", frame " + std::to_string(n));
+      ASSERT_FALSE(HasFatalFailure());
+    }
+  }
+}
+
+// The live loop's two replicas: one steps, the other is brought level by
+// copying what changed (roles alternating); both must equal a surface that
+// made every step itself, after every step, through resets, material edits
+// applied to both, edits-only requests and a restored snapshot.
+TEST(Surface, LevelWithLeavesBothReplicasEqualToOneThatStepped) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(3000, R);
+  for (unsigned seed : {4u, 5u}) {
+    DeformableSurface ref(m, mixed_materials(*m));
+    DeformableSurface r0(m, mixed_materials(*m)), r1(m, mixed_materials(*m));
+    DeformableSurface* replicas[2] = {&r0, &r1};
+    const auto frames = random_frames(*m, R, seed, 400);
+    std::size_t most_changed = 0;
+    SurfaceState snapshot;
+    std::vector<Contact> snapshot_contacts;
+    for (std::size_t n = 0; n < frames.size(); ++n) {
+      DeformableSurface& src = *replicas[n % 2];
+      DeformableSurface& dst = *replicas[1 - n % 2];
+      // Edits reach every surface; the source makes the step.
+      const bool reset = n % 97 == 50;
+      const bool soften = n % 61 == 30;
+      Material soft = linear();
+      soft.stiffness = 200 + static_cast<double>(n);
+      for (DeformableSurface* s : {&ref, &src, &dst}) {
+        if (reset) s->reset();
+        if (soften) s->set_uniform_material(soft);
+      }
+      if (n == 120) {
+        snapshot = ref.state();
+        snapshot_contacts.assign(ref.contacts().begin(), ref.contacts().end());
+      }
+      if (n == 200) {  // a restored snapshot: the next copy is the whole mesh
+        ref.restore(snapshot, snapshot_contacts);
+        src.restore(snapshot, snapshot_contacts);
+      }
+      const double dt = n % 11 == 0 ? 0.0 : (n % 5 == 0 ? 2e-3 : 1e-3);  // 0: an edits-only request
+      for (DeformableSurface* s : {&ref, &src}) {
+        s->set_contacts(frames[n]);
+        if (dt > 0) s->step(dt);
+      }
+      if (n != 200) most_changed = std::max(most_changed, src.changed_count());
+      dst.level_with(src);
+      EXPECT_EQ(src.changed_count(), 0u);
+      expect_level(ref, src, "seed " + std::to_string(seed) + ", source after frame " + std::to_string(n));
+      expect_level(ref, dst, "seed " + std::to_string(seed) + ", copy after frame " + std::to_string(n));
+      ASSERT_FALSE(HasFatalFailure());
+      // The copy's dirty ranges cover exactly the stream entries that changed
+      // in it; the source's are the step's own.
+      src.take_dirty_ranges();
+    }
+    // Only what changed was copied: the fields cover a small part of the sphere.
+    EXPECT_LT(most_changed, m->vertex_count() / 2);
+    EXPECT_GT(most_changed, 0u);
+  }
+}
+
+TEST(Surface, LevelWithMarksExactlyTheCopiedStreamChangesDirty) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(3000, R);
+  DeformableSurface a(m, mixed_materials(*m)), b(m, mixed_materials(*m));
+  a.take_dirty_ranges();
+  b.take_dirty_ranges();
+  const auto frames = random_frames(*m, R, 9, 120);
+  for (std::size_t n = 0; n < frames.size(); ++n) {
+    const std::vector<float> before(b.stream().begin(), b.stream().end());
+    a.set_contacts(frames[n]);
+    a.step(1e-3);
+    b.level_with(a);
+    a.take_dirty_ranges();
+    std::vector<char> dirty(m->vertex_count(), 0);
+    for (const IndexRange& r : b.take_dirty_ranges())
+      for (Index i = r.begin; i < r.end; ++i) dirty[i] = 1;
+    for (Index i = 0; i < m->vertex_count(); ++i) {
+      const bool changed = std::memcmp(&before[4 * i], &b.stream()[4 * i], 4 * sizeof(float)) != 0;
+      ASSERT_EQ(static_cast<bool>(dirty[i]), changed) << "frame " << n << ", vertex " << i;
+    }
+  }
+}
+
+TEST(Surface, LevelWithRejectsAnotherMesh) {
+  const MeshPtr m = sphere(500, 0.1), other = sphere(500, 0.1);
+  DeformableSurface a(m, mixed_materials(*m)), b(other, mixed_materials(*other));
+  try {
+    b.level_with(a);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "level_with: the source surface has another mesh object");
+  }
+}
+
+TEST(Surface, WarmLevelWithAllocatesNothing) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(4000, R);
+  DeformableSurface r0(m, mixed_materials(*m)), r1(m, mixed_materials(*m));
+  DeformableSurface* replicas[2] = {&r0, &r1};
+  const auto frames = script(*m, R);
+  for (int pass = 0; pass < 2; ++pass) {
+    long allocations = 0;
+    for (std::size_t n = 0; n < frames.size(); ++n) {
+      DeformableSurface& src = *replicas[n % 2];
+      DeformableSurface& dst = *replicas[1 - n % 2];
+      src.set_contacts(frames[n]);
+      src.step(1e-3);
+      test::start_counting_allocations();
+      dst.level_with(src);
+      allocations += test::stop_counting_allocations();
+    }
+    if (pass == 1) EXPECT_EQ(allocations, 0);
+  }
+}
+
 TEST(Surface, ActiveCountIsBoundedByTheFieldSupport) {
   const double R = 0.1, radius = 0.02;
   const MeshPtr m = sphere(20000, R);

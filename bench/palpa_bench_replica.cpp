@@ -1,0 +1,187 @@
+// palpa-bench, issue 8: replica steps and the threaded tick (see the header).
+
+#include "palpa_bench_replica.h"
+
+#include "core/spsc_queue.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cstring>
+#include <memory>
+#include <thread>
+
+namespace palpa::bench {
+
+namespace {
+
+std::unique_ptr<deform::DeformableSurface> make_replica(const haptics::SessionModel& model) {
+  auto s = std::make_unique<deform::DeformableSurface>(
+      model.mesh, deform::MaterialArrays::uniform(model.mesh->vertex_count(), deform::Material{}), model.options);
+  model.prepare_surface(*s);
+  s->take_dirty_ranges();
+  return s;
+}
+
+bool same_bits(const deform::DeformableSurface& a, const deform::DeformableSurface& b) {
+  const auto& va = a.state().vertices;
+  const auto& vb = b.state().vertices;
+  if (va.size() != vb.size() || a.state().time != b.state().time || a.active_count() != b.active_count()) return false;
+  if (std::memcmp(va.data(), vb.data(), va.size() * sizeof(va[0])) != 0) return false;
+  const auto sa = a.stream(), sb = b.stream();
+  return std::memcmp(sa.data(), sb.data(), sa.size_bytes()) == 0;
+}
+
+}  // namespace
+
+ReplicaStepFigures measure_replica_steps(const haptics::SessionModel& model,
+                                         const std::vector<haptics::DeformRequest>& requests, std::size_t skip) {
+  ReplicaStepFigures f;
+  // At most the first 600 requests (each costs milliseconds at 1M vertices, twice).
+  const std::size_t count = std::min<std::size_t>(requests.size(), 600);
+  skip = std::min(skip, count / 2);
+  std::vector<deform::Contact> scratch;
+  std::vector<double> both_ns, level_ns, step_ns, copy_ns;
+  // Before: each replica makes the step.
+  auto a = make_replica(model), b = make_replica(model);
+  for (std::size_t k = 0; k < count; ++k) {
+    const auto t0 = Clock::now();
+    haptics::apply_deform_request(*a, requests[k], scratch, model.field.get());
+    haptics::apply_deform_request(*b, requests[k], scratch, model.field.get());
+    const auto t1 = Clock::now();
+    a->take_dirty_ranges();
+    b->take_dirty_ranges();
+    if (k >= skip) both_ns.push_back(elapsed_ns(t0, t1));
+  }
+  // Now: one replica steps, the other is brought level (roles alternate).
+  std::unique_ptr<deform::DeformableSurface> r[2] = {make_replica(model), make_replica(model)};
+  double changed = 0, active = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    deform::DeformableSurface& src = *r[k % 2];
+    deform::DeformableSurface& dst = *r[1 - k % 2];
+    const auto t0 = Clock::now();
+    haptics::apply_deform_request(src, requests[k], scratch, model.field.get());
+    const auto t1 = Clock::now();
+    const double n_changed = static_cast<double>(src.changed_count());
+    haptics::apply_deform_edits(dst, requests[k].edits);
+    dst.level_with(src);
+    const auto t2 = Clock::now();
+    src.take_dirty_ranges();
+    dst.take_dirty_ranges();
+    if (k >= skip) {
+      level_ns.push_back(elapsed_ns(t0, t2));
+      step_ns.push_back(elapsed_ns(t0, t1));
+      copy_ns.push_back(elapsed_ns(t1, t2));
+      changed += n_changed;
+      active += static_cast<double>(src.active_count());
+    }
+  }
+  const double n = static_cast<double>(level_ns.size());
+  f.changed_mean = n > 0 ? changed / n : 0;
+  f.active_mean = n > 0 ? active / n : 0;
+  f.both = latency_of(both_ns);
+  f.level = latency_of(level_ns);
+  f.level_step = latency_of(step_ns);
+  f.level_copy = latency_of(copy_ns);
+  f.equal = same_bits(*a, *b) && same_bits(*a, *r[0]) && same_bits(*a, *r[1]);
+  return f;
+}
+
+ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionModel>& model, const ProbePaths& paths,
+                                 int probes, std::size_t warmup, std::size_t ticks, bool level) {
+  std::vector<haptics::ProbeSetup> setups(static_cast<std::size_t>(probes));
+  for (auto& su : setups) {
+    su.name = "bench probe";
+    su.spec.position_dof = 3;
+    su.safety.max_jump = 1e3;
+  }
+  haptics::LoopCore core(*model->tree, *model->mesh, model->config, setups, model->field.get());
+  std::unique_ptr<deform::DeformableSurface> replicas[2] = {make_replica(*model), make_replica(*model)};
+  struct Meta {
+    double time = 0;
+  };
+  Meta meta[2];
+  std::atomic<int> current{0}, in_use{-1};
+  std::atomic<bool> stop{false};
+  SpscQueue<haptics::DeformRequest> queue(64);
+  std::vector<double> step_ns;
+  step_ns.reserve(ticks);
+  std::size_t merged = 0;
+
+  // The deformation thread: HapticLoop::process.
+  std::thread deform([&] {
+    std::vector<deform::Contact> scratch;
+    haptics::DeformRequest r, later;
+    while (!stop.load(std::memory_order_relaxed)) {
+      if (!queue.pop(r)) {
+        std::this_thread::sleep_for(std::chrono::microseconds(50));
+        continue;
+      }
+      while (queue.pop(later)) {
+        haptics::merge_requests(r, later);
+        ++merged;
+      }
+      const auto t0 = Clock::now();
+      const int cur = current.load();
+      const int other = 1 - cur;
+      haptics::apply_deform_request(*replicas[other], r, scratch, model->field.get());
+      replicas[other]->take_dirty_ranges();
+      meta[other].time = r.time;
+      current.store(other);
+      while (in_use.load() == cur) std::this_thread::sleep_for(std::chrono::microseconds(20));
+      if (level) {
+        haptics::apply_deform_edits(*replicas[cur], r.edits);
+        replicas[cur]->level_with(*replicas[other]);
+      } else {
+        haptics::apply_deform_request(*replicas[cur], r, scratch, model->field.get());
+      }
+      replicas[cur]->take_dirty_ranges();
+      meta[cur] = meta[other];
+      step_ns.push_back(elapsed_ns(t0, Clock::now()));
+    }
+  });
+
+  // The haptic side, paced at the model's rate (sleep, then spin the last 100 us).
+  const double period = 1.0 / model->config.rate_hz;
+  const auto period_ns = std::chrono::nanoseconds(static_cast<long long>(period * 1e9));
+  std::array<haptics::ProbeTickInput, haptics::kMaxProbes> inputs{};
+  std::array<haptics::ProbeTickResult, haptics::kMaxProbes> results{};
+  haptics::ContactSet contacts;
+  std::vector<double> tick_ns;
+  tick_ns.reserve(ticks);
+  const std::size_t total = std::min(paths.ticks, warmup + ticks);
+  auto next = Clock::now() + period_ns;
+  for (std::size_t k = 0; k < total; ++k) {
+    const auto wake = next - std::chrono::microseconds(100);
+    if (Clock::now() < wake) std::this_thread::sleep_until(wake);
+    while (Clock::now() < next) {
+    }
+    next += period_ns;
+    const double t = static_cast<double>(k) * period;
+    for (int p = 0; p < probes; ++p) inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
+    const auto a = Clock::now();
+    int idx;
+    do {
+      idx = current.load();
+      in_use.store(idx);
+    } while (current.load() != idx);
+    const bool due = core.tick(k, t, *replicas[idx], meta[idx].time,
+                               std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
+                               std::span<haptics::ProbeTickResult>(results.data(), probes), contacts);
+    in_use.store(-1);
+    const auto b = Clock::now();
+    if (due) queue.push(core.request());
+    if (k >= warmup) tick_ns.push_back(elapsed_ns(a, b));
+  }
+  // Let the last steps finish, then stop.
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  stop.store(true);
+  deform.join();
+  ThreadedFigures f;
+  f.tick = latency_of(tick_ns);
+  f.steps = step_ns.size();
+  f.merged = merged;
+  f.step = latency_of(step_ns);
+  return f;
+}
+
+}  // namespace palpa::bench

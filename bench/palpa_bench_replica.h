@@ -1,0 +1,42 @@
+#pragma once
+// palpa-bench, issue 8: the deformation step of the live loop's two replicas
+// (stepped twice, as before, against one step and a copy of what changed),
+// and the haptic tick with the deformation step on another thread, as
+// HapticLoop runs them (palpa_bench_replica.cpp).
+
+#include "haptics/session.h"
+#include "palpa_bench_path.h"
+#include "palpa_bench_util.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace palpa::bench {
+
+/// The requests a session made, applied to two fresh replicas in two ways:
+/// `both` steps each replica (HapticLoop before issue 8), `level` steps one
+/// and brings the other level with DeformableSurface::level_with (roles
+/// alternating, as HapticLoop does now). Per request, us; `equal`: both
+/// ways end with bit-identical replicas.
+struct ReplicaStepFigures {
+  Latency both, level, level_step, level_copy;
+  double changed_mean = 0;  ///< vertices copied per request
+  double active_mean = 0;   ///< active set after the step
+  bool equal = false;
+};
+ReplicaStepFigures measure_replica_steps(const haptics::SessionModel& model,
+                                         const std::vector<haptics::DeformRequest>& requests, std::size_t skip);
+
+/// The haptic tick (LoopCore::tick on the replica the deformation thread is
+/// not writing) paced at the model's rate on this thread while another
+/// thread makes the deformation steps on the other replica and brings the
+/// first level, exactly as HapticLoop::process (level false: steps both
+/// replicas, as HapticLoop did before issue 8). Per tick and per step, us.
+struct ThreadedFigures {
+  Latency tick, step;
+  std::size_t steps = 0, merged = 0;
+};
+ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionModel>& model, const ProbePaths& paths,
+                                 int probes, std::size_t warmup, std::size_t ticks, bool level = true);
+
+}  // namespace palpa::bench
