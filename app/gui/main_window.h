@@ -40,6 +40,7 @@ class SurfaceView;
 namespace palpa::app {
 
 class ForcePlot;
+class RenderGate;
 
 /// Call before creating the QApplication: VTK's surface format with
 /// multisampling off, and the organisation name QSettings files go under.
@@ -108,12 +109,15 @@ class MainWindow : public QMainWindow {
   double haptic_rate() const { return haptic_rate_; }
   double frame_rate() const { return frame_rate_; }
   ForcePlot* force_plot() const { return plot_; }
+  /// The glyph of probe `id` in the scene (null before its first frame).
+  const render::ProbeView* probe_view(int id) const;
   /// Loop warnings and the selected probe's safety state / latched fault, as shown.
   QString warnings_text() const;
   QString device_status_text() const;
 
   /// Reads the haptic loop's latest state, moves the changed stream entries
-  /// to the GPU and draws one frame (the frame timer calls this).
+  /// to the GPU and draws a frame when anything shown changed (the frame
+  /// timer calls this; an idle window draws nothing).
   void advance();
 
  protected:
@@ -162,6 +166,7 @@ class MainWindow : public QMainWindow {
   struct Vtk;
   std::unique_ptr<Vtk> vtk_;
   std::unique_ptr<render::SurfaceView> view_;
+  std::unique_ptr<RenderGate> render_gate_;  // draws only when the scene changed
   std::map<int, std::unique_ptr<render::ProbeView>> probe_views_;
   std::unique_ptr<render::ProbeView> hover_view_;
   std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views_;  // shown lesions only
@@ -225,6 +230,7 @@ class MainWindow : public QMainWindow {
   double rate_window_start_ = 0;
   std::uint64_t frames_in_window_ = 0;
   double haptic_rate_ = 0, frame_rate_ = 0;
+  double figures_shown_at_ = -1;  // s: the loop's figures are shown twice a second (each change repaints the window)
 };
 
 }  // namespace palpa::app
