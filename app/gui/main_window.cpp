@@ -104,7 +104,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
   // Frame timer: the haptic loop runs on its own threads; each frame reads
   // its state and draws.
   clock_.start();
-  connect(&frame_timer_, &QTimer::timeout, this, &MainWindow::advance);
+  connect(&frame_timer_, &QTimer::timeout, this, &MainWindow::tick);
   frame_timer_.start(16);
 }
 
@@ -1161,7 +1161,10 @@ bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
 
 // ---------------------------------------------------------------------------
 // The frame: the loop's latest state, the changed stream entries to the GPU, draw.
-void MainWindow::advance() {
+void MainWindow::advance() { step(true); }
+void MainWindow::tick() { step(false); }
+
+void MainWindow::step(bool always_draw) {
   if (!workbench_.has_organ() || !view_) return;
   const double now = clock_.nsecsElapsed() * 1e-9;
   workbench_.update();
@@ -1169,6 +1172,7 @@ void MainWindow::advance() {
   apply_frame_transform();
   sync_probe_views();
   update_readouts();
+  if (always_draw) render_gate_->mark();
   if (render_gate_->draw_if_needed()) ++frames_in_window_;
 
   // Frame rate over the last second; the haptic rate is the loop's own.

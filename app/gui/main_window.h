@@ -116,8 +116,7 @@ class MainWindow : public QMainWindow {
   QString device_status_text() const;
 
   /// Reads the haptic loop's latest state, moves the changed stream entries
-  /// to the GPU and draws a frame when anything shown changed (the frame
-  /// timer calls this; an idle window draws nothing).
+  /// to the GPU and draws one frame.
   void advance();
 
  protected:
@@ -128,6 +127,10 @@ class MainWindow : public QMainWindow {
 
  private:
   void build_ui();
+  // The frame timer's advance(): draws only when something shown changed,
+  // so an idle window draws nothing.
+  void tick();
+  void step(bool always_draw);
   void build_menus();
   QWidget* build_material_panel();
   void load_settings();

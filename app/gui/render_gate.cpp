@@ -42,11 +42,16 @@ bool RenderGate::draw_if_needed() {
 }
 
 void RenderGate::draw() {
+  const vtkMTimeType before = scene_time();
   window_->Render();
   ++draws_;
-  pending_ = false;
-  // After the draw: drawing itself may touch the camera (clipping range).
-  drawn_at_ = scene_time();
+  const vtkMTimeType after = scene_time();
+  // Drawing may adjust the scene itself (the camera's clipping range to
+  // what is drawn now): then one more draw shows the scene as adjusted, but
+  // not another for an adjustment that draw makes again.
+  pending_ = after != before && !settling_;
+  settling_ = pending_;
+  drawn_at_ = after;
 }
 
 }  // namespace palpa::app

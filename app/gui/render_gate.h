@@ -36,6 +36,7 @@ class RenderGate {
  private:
   vtkRenderWindow* window_;
   bool pending_ = true;
+  bool settling_ = false;  // the last draw was the one after a draw that adjusted the scene
   vtkMTimeType drawn_at_ = 0;
   std::uint64_t draws_ = 0;
 };
