@@ -2,6 +2,7 @@
 
 #include "app/gui/main_window.h"
 
+#include "app/gui/device_dialog.h"
 #include "app/gui/force_plot.h"
 #include "app/gui/replay_panel.h"
 #include "app/gui/session_browser.h"
@@ -134,6 +135,11 @@ MainWindow::~MainWindow() {
 }
 
 vtkRenderer* MainWindow::renderer() const { return vtk_->renderer; }
+
+const render::ProbeView* MainWindow::probe_view(int id) const {
+  auto it = probe_views_.find(id);
+  return it == probe_views_.end() ? nullptr : it->second.get();
+}
 
 // ---------------------------------------------------------------------------
 // Layout: banner over the viewport, docks for organ, probes, readouts, material.
@@ -677,8 +683,8 @@ void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
   hover_view_->set_visible(false);
   for (auto& [id, pv] : probe_views_) pv->remove_from(vtk_->renderer);
   probe_views_.clear();
-  refresh_probe_list();
   plot_->clear();
+  refresh_probe_list();
 
   // Facts: size, counts, closed or not.
   const Vec3 ext = f.bbox_max - f.bbox_min;
@@ -990,77 +996,12 @@ bool MainWindow::add_device_probe(const QString& plugin, const QString& options)
   return true;
 }
 
-// The device dialog: a page of options per plugin, plus free options.
+// The device dialog: the loadable plugins, each with a form built from the
+// options it declares (device_dialog.h).
 void MainWindow::add_device_dialog() {
-  QDialog dialog(this);
-  dialog.setWindowTitle("Add device probe");
-  auto* form = new QFormLayout(&dialog);
-  auto* kind = new QComboBox;
-  kind->addItems({"scripted", "spacemouse", "falcon", "igtl", "mouse"});
-  form->addRow("Device", kind);
-  auto* pages = new QStackedWidget;
-  auto file_row = [&](QWidget* page, const QString& label, const QString& filter) {
-    auto* row = new QHBoxLayout;
-    auto* edit = new QLineEdit;
-    auto* browse = new QPushButton("Browse...");
-    row->addWidget(edit, 1);
-    row->addWidget(browse);
-    connect(browse, &QPushButton::clicked, &dialog, [&dialog, edit, label, filter] {
-      const QString path = QFileDialog::getOpenFileName(&dialog, label, QString(), filter);
-      if (!path.isEmpty()) edit->setText(path);
-    });
-    auto* layout = new QFormLayout(page);
-    layout->addRow(label, row);
-    return std::make_pair(edit, layout);
-  };
-  // scripted: trajectory file, loop.
-  auto* scripted = new QWidget;
-  auto [trajectory, scripted_form] = file_row(scripted, "Trajectory", "Trajectories (*.csv);;All files (*)");
-  auto* loop = new QCheckBox("Start over at the end");
-  scripted_form->addRow(loop);
-  // spacemouse: nothing required.
-  auto* spacemouse = new QWidget;
-  (new QFormLayout(spacemouse))->addRow(new QLabel("The first 3Dconnexion device found (rate control)."));
-  // falcon: the firmware file the user provides.
-  auto* falcon = new QWidget;
-  auto [firmware, falcon_form] = file_row(falcon, "Firmware", "Firmware (*.bin);;All files (*)");
-  falcon_form->addRow(new QLabel("Novint's firmware is not shipped; needed when the Falcon has none loaded."));
-  // igtl: host and port.
-  auto* igtl = new QWidget;
-  auto* igtl_form = new QFormLayout(igtl);
-  auto* host = new QLineEdit("127.0.0.1");
-  auto* port = new QSpinBox;
-  port->setRange(1, 65535);
-  port->setValue(18944);
-  igtl_form->addRow("Host", host);
-  igtl_form->addRow("Port", port);
-  auto* mouse = new QWidget;
-  (new QFormLayout(mouse))->addRow(new QLabel("A virtual probe driven by the mouse."));
-  for (QWidget* w : {scripted, spacemouse, falcon, igtl, mouse}) pages->addWidget(w);
-  connect(kind, qOverload<int>(&QComboBox::currentIndexChanged), pages, &QStackedWidget::setCurrentIndex);
-  form->addRow(pages);
-  auto* extra = new QLineEdit;
-  extra->setPlaceholderText("more options: key=value;key=value (plugins/README.md)");
-  form->addRow("Options", extra);
-  auto* box = new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel);
-  connect(box, &QDialogButtonBox::accepted, &dialog, &QDialog::accept);
-  connect(box, &QDialogButtonBox::rejected, &dialog, &QDialog::reject);
-  form->addRow(box);
+  DeviceDialog dialog(this);
   if (dialog.exec() != QDialog::Accepted) return;
-
-  // Options string from the page of the chosen plugin.
-  const QString plugin = kind->currentText();
-  QStringList options;
-  if (plugin == "scripted") {
-    options << "file=" + trajectory->text();
-    if (loop->isChecked()) options << "loop=true";
-  } else if (plugin == "falcon" && !firmware->text().isEmpty()) {
-    options << "firmware=" + firmware->text();
-  } else if (plugin == "igtl") {
-    options << "host=" + host->text() << "port=" + QString::number(port->value());
-  }
-  if (!extra->text().trimmed().isEmpty()) options << extra->text().trimmed();
-  add_device_probe(plugin, options.join(';'));
+  add_device_probe(dialog.plugin(), dialog.options());
 }
 
 void MainWindow::reenable_selected() {
@@ -1085,9 +1026,13 @@ void MainWindow::refresh_probe_list() {
   probe_list_->clear();
   int row = 0;
   for (const Probe& p : workbench_.probes()) {
-    probe_list_->addItem(p.host_fed && p.device == "mouse" ? QString("Probe %1").arg(p.id)
-                                                           : QString("Probe %1 (%2)").arg(p.id).arg(
-                                                                 QString::fromStdString(p.device)));
+    const QString label = p.host_fed && p.device == "mouse"
+                              ? QString("Probe %1").arg(p.id)
+                              : QString("Probe %1 (%2)").arg(p.id).arg(QString::fromStdString(p.device));
+    const QColor colour = ForcePlot::probe_colour(p.id);
+    probe_list_->addItem(label);
+    probe_list_->item(row)->setData(Qt::DecorationRole, colour);  // its trace's and glyph's colour
+    plot_->set_probe(p.id, label, colour);
     if (p.id == workbench_.selected_id()) probe_list_->setCurrentRow(row);
     ++row;
   }
@@ -1312,7 +1257,8 @@ void MainWindow::pull_surface() {
   need_full_sync_ = false;
   workbench_.pull_surface(
       [&](std::span<const float> stream, std::span<const IndexRange> ranges) {
-        if (!ranges.empty()) view_->update(stream, ranges);
+        if (ranges.empty()) return;
+        view_->update(stream, ranges);
       },
       everything);
   view_at_rest_ = false;
@@ -1325,6 +1271,8 @@ void MainWindow::sync_probe_views() {
     auto& pv = probe_views_[p.id];
     if (!pv) {
       pv = std::make_unique<render::ProbeView>(0.006 * diag, 0.12 * diag);
+      const QColor c = plot_->colour(p.id);  // the glyph in its trace's colour
+      pv->set_colour(Vec3(c.redF(), c.greenF(), c.blueF()));
       pv->add_to(vtk_->renderer);
     }
     // The arrow reaches 0.2 organ diagonals at the maximum force.
@@ -1343,9 +1291,15 @@ void MainWindow::sync_probe_views() {
 
 void MainWindow::update_readouts() {
   const double t = workbench_.time();
-  for (const Probe& p : workbench_.probes())
+  // The plot: probes that are gone lose their trace; the clamp as a line.
+  std::vector<int> ids;
+  for (const Probe& p : workbench_.probes()) {
+    ids.push_back(p.id);
     if (p.placed) plot_->add_sample(p.id, t, p.output.force.norm());
-  plot_->update();
+  }
+  plot_->retain(ids);
+  plot_->advance_to(t);
+  plot_->set_clamp(workbench_.material().max_force);
   QString status;
   if (const Probe* p = workbench_.selected_probe()) {
     force_label_->setText(QString::number(p->output.force.norm(), 'f', 2) + " N");
@@ -1362,11 +1316,19 @@ void MainWindow::update_readouts() {
     status = lines.join("<br>");
     reenable_button_->setEnabled(p->force_output);
   } else {
+    // No probe selected (the last one removed): nothing to read out.
+    force_label_->setText("-");
+    depth_label_->setText("-");
     reenable_button_->setEnabled(false);
   }
   if (device_label_->text() != status) device_label_->setText(status);
   const haptics::LoopStatistics st = workbench_.statistics();
   haptic_rate_ = st.achieved_rate_hz;
+  // The loop's figures jitter on every frame; shown twice a second, an idle
+  // window does not repaint (and recomposite through GL) 60 times a second.
+  const double now = clock_.isValid() ? clock_.nsecsElapsed() * 1e-9 : 0.0;
+  if (figures_shown_at_ >= 0 && now - figures_shown_at_ < 0.5) return;
+  figures_shown_at_ = now;
   haptic_label_->setText(QString::number(haptic_rate_, 'f', 0) + " Hz");
   p99_label_->setText(QString::number(st.tick_duration.p99_us, 'f', 1) + " us");
   misses_label_->setText(QString::number(st.deadline_misses));

@@ -152,12 +152,14 @@ class MainWindow : public QMainWindow {
   double haptic_rate() const { return haptic_rate_; }
   double frame_rate() const { return frame_rate_; }
   ForcePlot* force_plot() const { return plot_; }
+  /// The glyph of probe `id` in the scene (null before its first frame).
+  const render::ProbeView* probe_view(int id) const;
   /// Loop warnings and the selected probe's safety state / latched fault, as shown.
   QString warnings_text() const;
   QString device_status_text() const;
 
   /// Reads the haptic loop's latest state, moves the changed stream entries
-  /// to the GPU and draws one frame (the frame timer calls this).
+  /// to the GPU and draws one frame.
   void advance();
 
  protected:
@@ -168,6 +170,8 @@ class MainWindow : public QMainWindow {
 
  private:
   void build_ui();
+  // The frame timer's advance(): draws only when something shown changed,
+  // so an idle window draws nothing.
   void build_menus();
   void build_session_ui();
   void sync_session_actions();
@@ -288,6 +292,7 @@ class MainWindow : public QMainWindow {
   double rate_window_start_ = 0;
   std::uint64_t frames_in_window_ = 0;
   double haptic_rate_ = 0, frame_rate_ = 0;
+  double figures_shown_at_ = -1;  // s: the loop's figures are shown twice a second (each change repaints the window)
 };
 
 }  // namespace palpa::app

@@ -21,6 +21,7 @@ class DeviceError : public std::runtime_error {
 /// The entry points of one plugin (all required except feed).
 struct PluginApi {
   palpa_device_interface_fn interface = nullptr;
+  palpa_device_options_fn options = nullptr;
   palpa_device_create_fn create = nullptr;
   palpa_device_destroy_fn destroy = nullptr;
   palpa_device_spec_fn spec = nullptr;

@@ -190,6 +190,7 @@ Plugin PluginLoader::load_file(const fs::path& path) {
     throw DeviceError("device plugin '" + path.string() + "' implements interface " + their_version +
                       ", but this program needs " + PALPA_DEVICE_INTERFACE);
 
+  api.options = symbol<palpa_device_options_fn>(lib, "palpa_device_options", path, true);
   api.create = symbol<palpa_device_create_fn>(lib, "palpa_device_create", path, true);
   api.destroy = symbol<palpa_device_destroy_fn>(lib, "palpa_device_destroy", path, true);
   api.spec = symbol<palpa_device_spec_fn>(lib, "palpa_device_spec", path, true);
@@ -201,11 +202,43 @@ Plugin PluginLoader::load_file(const fs::path& path) {
   api.feed = symbol<palpa_device_feed_fn>(lib, "palpa_device_feed", path, false);
 
   Plugin p;
+  p.api_ = api;
+  // The option table is read once here, so a broken one is refused at load time.
+  {
+    std::size_t count = 0;
+    const PalpaDeviceOption* rows = api.options(&count);
+    if (count > 0 && rows == nullptr)
+      throw DeviceError("device plugin '" + path.string() + "' declares a bad option table: no rows for " +
+                        std::to_string(count) + " options");
+    for (std::size_t i = 0; i < count; ++i) {
+      const PalpaDeviceOption& r = rows[i];
+      auto str = [](const char* c) { return std::string(c ? c : ""); };
+      if (r.name == nullptr || *r.name == '\0' || r.type < PALPA_OPTION_DOUBLE || r.type > PALPA_OPTION_CHOICE)
+        throw DeviceError("device plugin '" + path.string() + "' declares a bad option table: row " +
+                          std::to_string(i) + " has no name or an unknown type");
+      OptionDescription d;
+      d.name = r.name;
+      d.type = r.type;
+      d.required = (r.flags & PALPA_OPTION_REQUIRED) != 0;
+      d.unit = str(r.unit);
+      d.min = r.min;
+      d.max = r.max;
+      d.default_value = str(r.default_value);
+      d.help = str(r.help);
+      const std::string choices = str(r.choices);
+      for (std::size_t start = 0; !choices.empty() && start <= choices.size();) {
+        std::size_t end = choices.find('|', start);
+        if (end == std::string::npos) end = choices.size();
+        d.choices.push_back(choices.substr(start, end - start));
+        start = end + 1;
+      }
+      p.options_.push_back(std::move(d));
+    }
+  }
   p.name_ = path.stem().string();
   if (p.name_.rfind(kPrefix, 0) == 0) p.name_ = p.name_.substr(kPrefix.size());
   p.path_ = path;
   p.library_ = std::move(handle);
-  p.api_ = api;
   return p;
 }
 
@@ -232,6 +265,8 @@ std::vector<std::string> PluginLoader::available() const {
   }
   return out;
 }
+
+std::vector<OptionDescription> Plugin::options() const { return options_; }
 
 Device Plugin::create(const std::string& options) const {
   return Device(library_, api_, options, name_);

@@ -20,6 +20,7 @@
 #include "devices/device.h"
 
 #include <filesystem>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -27,10 +28,25 @@
 
 namespace palpa::devices {
 
+/// One option a plugin declares (palpa_device_options(), a copy of its
+/// PalpaDeviceOption row that outlives the library).
+struct OptionDescription {
+  std::string name;
+  std::uint32_t type = 0;  ///< PALPA_OPTION_*
+  bool required = false;
+  std::string unit;        ///< "" when none
+  double min = 0, max = 0; ///< DOUBLE and INT
+  std::string default_value;  ///< as it would be given; "" when none
+  std::vector<std::string> choices;  ///< CHOICE
+  std::string help;
+};
+
 /// A loaded plugin library whose interface version matched.
 class Plugin {
  public:
   const std::string& name() const { return name_; }
+  /// The options its create() accepts, in the order a form shows them.
+  std::vector<OptionDescription> options() const;
   const std::filesystem::path& path() const { return path_; }
   const PluginApi& api() const { return api_; }
 
@@ -44,6 +60,7 @@ class Plugin {
   std::filesystem::path path_;
   std::shared_ptr<void> library_;
   PluginApi api_{};
+  std::vector<OptionDescription> options_;
 };
 
 class PluginLoader {
@@ -71,6 +88,7 @@ class PluginLoader {
   ///    (user 0) or root" (checked before dlopen)
   ///  - "cannot load device plugin '<path>': <reason from the dynamic loader>"
   ///  - "device plugin '<path>' lacks the entry point <symbol>"
+  ///  - "device plugin '<path>' declares a bad option table: <why>"
   ///  - "device plugin '<path>' implements interface <theirs>, but this program needs <ours>"
   static Plugin load_file(const std::filesystem::path& path);
 

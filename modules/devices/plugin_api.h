@@ -28,7 +28,9 @@ extern "C" {
 #endif
 
 /** The interface string of this header. */
-#define PALPA_DEVICE_INTERFACE "palpa.device/1"
+#define PALPA_DEVICE_INTERFACE "palpa.device/2"
+/* History: palpa.device/1 had no palpa_device_options(); /2 adds it (the
+ * options a plugin accepts, from which the workbench builds its forms). */
 
 /** Return codes of the entry points that return int. */
 #define PALPA_DEVICE_OK 0
@@ -73,6 +75,31 @@ typedef struct PalpaForceCommand {
                                    (the watchdog against a stalled haptic loop) */
 } PalpaForceCommand;
 
+/** Types of an option (PalpaDeviceOption::type). */
+#define PALPA_OPTION_DOUBLE 1 /**< a finite number within [min, max] */
+#define PALPA_OPTION_INT 2    /**< an integer within [min, max] */
+#define PALPA_OPTION_BOOL 3   /**< true/false (also yes/no, on/off, 1/0) */
+#define PALPA_OPTION_STRING 4 /**< free text */
+#define PALPA_OPTION_FILE 5   /**< a path to an existing file the user picks */
+#define PALPA_OPTION_CHOICE 6 /**< one of the '|'-separated words of `choices` */
+
+/** Flags of an option. */
+#define PALPA_OPTION_REQUIRED 0x1u /**< create() fails without it */
+
+/** One option palpa_device_create() accepts. Every string is NUL-terminated
+ *  and static (valid while the library is loaded); none is NULL. */
+typedef struct PalpaDeviceOption {
+  const char* name;          /**< the key, e.g. "time_scale" */
+  uint32_t type;             /**< PALPA_OPTION_* */
+  uint32_t flags;            /**< PALPA_OPTION_REQUIRED or 0 */
+  const char* unit;          /**< SI unit of a number ("m", "N", "Hz", "s"), "" when none */
+  double min, max;           /**< inclusive range of DOUBLE and INT options (0, 0 otherwise) */
+  const char* default_value; /**< the value used when the option is not given, written as it would be
+                                  given ("1", "false", "client"); "" when there is none */
+  const char* choices;       /**< CHOICE: the accepted words separated by '|' ("client|server"); "" otherwise */
+  const char* help;          /**< one or two sentences for a tooltip */
+} PalpaDeviceOption;
+
 /** Opaque plugin instance. */
 typedef struct PalpaDevice PalpaDevice;
 
@@ -85,6 +112,12 @@ typedef const char* (*palpa_device_interface_fn)(void);
  *  newlines; may be NULL or empty). On failure returns NULL and writes a
  *  NUL-terminated message naming the problem into error[0 .. error_size). */
 typedef PalpaDevice* (*palpa_device_create_fn)(const char* options, char* error, size_t error_size);
+
+/** The options palpa_device_create() accepts, in the order a form shows
+ *  them: returns a static array and its length in *count. Callable before
+ *  any instance exists (the host builds its forms from it); the ranges are
+ *  the ones create() enforces. (Added in palpa.device/2.) */
+typedef const PalpaDeviceOption* (*palpa_device_options_fn)(size_t* count);
 
 /** Destroys an instance (stops it first when started). */
 typedef void (*palpa_device_destroy_fn)(PalpaDevice* device);

@@ -1,8 +1,14 @@
 #pragma once
 // Helpers for writing a device plugin in C++: a base class with one virtual
-// per entry point, the option parser with clear messages, and the macro that
-// exports the extern "C" entry points of plugin_api.h for a class. Header
-// only, so a plugin links nothing of the host.
+// per entry point, the option table and the parser that reads options by it
+// (with clear messages), and the macro that exports the extern "C" entry
+// points of plugin_api.h for a class. Header only, so a plugin links nothing
+// of the host.
+//
+// One table per plugin declares its options (palpa_device_options() hands it
+// to the host, which builds its forms from it) and is also what the parser
+// checks: unknown keys, defaults and ranges all come from it, so what the
+// form offers and what create() accepts cannot drift apart.
 
 #include "devices/plugin_api.h"
 
@@ -15,6 +21,7 @@
 #include <ctime>
 #include <map>
 #include <memory>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -51,10 +58,63 @@ class PluginError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A plugin's declared options (a static array of PalpaDeviceOption).
+using OptionTable = std::span<const PalpaDeviceOption>;
+
+/// Table rows. Numbers: unit ("" for none), inclusive range, default as text.
+constexpr PalpaDeviceOption option_double(const char* name, const char* unit, double min, double max,
+                                          const char* default_value, const char* help) {
+  return {name, PALPA_OPTION_DOUBLE, 0u, unit, min, max, default_value, "", help};
+}
+constexpr PalpaDeviceOption option_int(const char* name, const char* unit, long min, long max,
+                                       const char* default_value, const char* help) {
+  return {name, PALPA_OPTION_INT, 0u, unit, static_cast<double>(min), static_cast<double>(max), default_value, "",
+          help};
+}
+constexpr PalpaDeviceOption option_bool(const char* name, const char* default_value, const char* help) {
+  return {name, PALPA_OPTION_BOOL, 0u, "", 0.0, 0.0, default_value, "", help};
+}
+constexpr PalpaDeviceOption option_string(const char* name, const char* default_value, const char* help) {
+  return {name, PALPA_OPTION_STRING, 0u, "", 0.0, 0.0, default_value, "", help};
+}
+/// A file path; `flags` PALPA_OPTION_REQUIRED when create() needs it.
+constexpr PalpaDeviceOption option_file(const char* name, std::uint32_t flags, const char* help) {
+  return {name, PALPA_OPTION_FILE, flags, "", 0.0, 0.0, "", "", help};
+}
+/// One of the '|'-separated `choices`.
+constexpr PalpaDeviceOption option_choice(const char* name, const char* choices, const char* default_value,
+                                          const char* help) {
+  return {name, PALPA_OPTION_CHOICE, 0u, "", 0.0, 0.0, default_value, choices, help};
+}
+
+/// The words of a CHOICE option's `choices` ("a|b" -> {"a", "b"}).
+inline std::vector<std::string> split_choices(const char* choices) {
+  std::vector<std::string> out;
+  std::string s = choices ? choices : "";
+  std::size_t start = 0;
+  while (start <= s.size() && !s.empty()) {
+    std::size_t end = s.find('|', start);
+    if (end == std::string::npos) end = s.size();
+    out.push_back(s.substr(start, end - start));
+    start = end + 1;
+  }
+  return out;
+}
+
 /// The "key=value" options given to palpa_device_create(), separated by ';'
 /// or newlines; blanks around keys and values are ignored.
 class Options {
  public:
+  /// Parses `text` and refuses keys not in `table` (see check_known); the
+  /// table-driven getters (number, integer, flag, text) then take defaults
+  /// and ranges from it.
+  Options(const char* text, std::string plugin, OptionTable table) : Options(text, std::move(plugin)) {
+    table_ = table;
+    std::vector<std::string> known;
+    for (const auto& d : table) known.emplace_back(d.name);
+    check_known(known);
+  }
+
   /// Parses `text` (may be null). `plugin` prefixes every message.
   /// Throws PluginError for an entry without '=' or a repeated key.
   Options(const char* text, std::string plugin) : plugin_(std::move(plugin)) {
@@ -136,6 +196,54 @@ class Options {
     throw PluginError(plugin_ + ": option " + key + "='" + v + "' is not a boolean (use true or false)");
   }
 
+  /// The declaration of `key` in the table (a plugin asking for an option it
+  /// did not declare is a programming error: std::logic_error).
+  const PalpaDeviceOption& declared(std::string_view key, std::uint32_t type) const {
+    for (const auto& d : table_)
+      if (key == d.name) {
+        if (d.type != type) throw std::logic_error(plugin_ + ": option " + std::string(key) + " is declared with another type");
+        return d;
+      }
+    throw std::logic_error(plugin_ + ": option " + std::string(key) + " is not declared");
+  }
+
+  /// A DOUBLE option: its value, else its declared default; the declared range.
+  double number(std::string_view key) const {
+    const auto& d = declared(key, PALPA_OPTION_DOUBLE);
+    return get_double(d.name, std::strtod(d.default_value, nullptr), d.min, d.max);
+  }
+  /// An INT option: its value, else its declared default; the declared range.
+  long integer(std::string_view key) const {
+    const auto& d = declared(key, PALPA_OPTION_INT);
+    return get_int(d.name, std::strtol(d.default_value, nullptr, 0), static_cast<long>(d.min),
+                   static_cast<long>(d.max));
+  }
+  /// A BOOL option: its value, else its declared default.
+  bool flag(std::string_view key) const {
+    const auto& d = declared(key, PALPA_OPTION_BOOL);
+    const std::string def = d.default_value;
+    return get_bool(d.name, def == "1" || def == "true" || def == "yes" || def == "on");
+  }
+  /// A STRING or FILE option: its value, else its declared default.
+  std::string text(std::string_view key) const {
+    for (const auto& d : table_)
+      if (key == d.name && (d.type == PALPA_OPTION_STRING || d.type == PALPA_OPTION_FILE))
+        return get_string(d.name, d.default_value);
+    throw std::logic_error(plugin_ + ": option " + std::string(key) + " is not a declared text option");
+  }
+  /// A CHOICE option: its value (one of the declared words), else its
+  /// default; "<plugin>: option mode='x' must be client or server" otherwise.
+  std::string choice(std::string_view key) const {
+    const auto& d = declared(key, PALPA_OPTION_CHOICE);
+    const std::string v = get_string(d.name, d.default_value);
+    const auto words = split_choices(d.choices);
+    if (std::find(words.begin(), words.end(), v) != words.end()) return v;
+    std::string list;
+    for (std::size_t i = 0; i < words.size(); ++i)
+      list += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i];
+    throw PluginError(plugin_ + ": option " + d.name + "='" + v + "' must be " + list);
+  }
+
   const std::string& plugin() const { return plugin_; }
 
  private:
@@ -153,6 +261,7 @@ class Options {
 
   std::string plugin_;
   std::map<std::string, std::string> values_;
+  OptionTable table_;
 };
 
 /// One plugin instance. Subclasses implement the entry points; the real-time
@@ -186,16 +295,23 @@ struct PalpaDevice {
 
 /// Exports the required entry points for a plugin whose instances are made by
 /// `FACTORY(const palpa::devices::plugin::Options&)` returning
-/// std::unique_ptr<DeviceImpl>; NAME prefixes messages. Exceptions never
-/// cross the C boundary.
-#define PALPA_EXPORT_DEVICE_PLUGIN(NAME, FACTORY)                                                     \
+/// std::unique_ptr<DeviceImpl>; NAME prefixes messages; TABLE is the static
+/// array of PalpaDeviceOption it declares (palpa_device_options() returns
+/// it, and the Options handed to FACTORY refuse keys not in it and read
+/// defaults and ranges from it). Exceptions never cross the C boundary.
+#define PALPA_EXPORT_DEVICE_PLUGIN(NAME, FACTORY, TABLE)                                              \
   extern "C" __attribute__((visibility("default"))) const char* palpa_device_interface(void) {       \
     return PALPA_DEVICE_INTERFACE;                                                                    \
+  }                                                                                                   \
+  extern "C" __attribute__((visibility("default"))) const PalpaDeviceOption* palpa_device_options(   \
+      size_t* count) {                                                                                \
+    if (count != nullptr) *count = sizeof(TABLE) / sizeof(TABLE[0]);                                 \
+    return TABLE;                                                                                     \
   }                                                                                                   \
   extern "C" __attribute__((visibility("default"))) PalpaDevice* palpa_device_create(                \
       const char* options, char* error, size_t error_size) {                                          \
     try {                                                                                             \
-      palpa::devices::plugin::Options opts(options, NAME);                                            \
+      palpa::devices::plugin::Options opts(options, NAME, palpa::devices::plugin::OptionTable(TABLE));  \
       auto dev = std::make_unique<PalpaDevice>();                                                     \
       dev->impl = FACTORY(opts);                                                                      \
       return dev.release();                                                                           \

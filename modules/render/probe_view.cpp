@@ -44,6 +44,11 @@ struct ProbeView::Impl {
   double force_scale = 10e-3;  // m per N
   vtkSmartPointer<vtkActor> tip, shaft, arrow;
   vtkNew<vtkMatrix4x4> tip_matrix, shaft_matrix, arrow_matrix;
+  // The last state drawn (set_state with the same one changes nothing).
+  bool has_state = false;
+  Vec3 tip_at, axis, force;
+  bool in_contact = false, selected = false;
+  double scale_at = 0;
 };
 
 ProbeView::ProbeView(double tip_radius, double shaft_length) : impl_(std::make_unique<Impl>()) {
@@ -93,8 +98,25 @@ ProbeView::~ProbeView() = default;
 
 void ProbeView::set_force_scale(double metres_per_newton) { impl_->force_scale = metres_per_newton; }
 
+void ProbeView::set_colour(const Vec3& rgb) { impl_->shaft->GetProperty()->SetColor(rgb.x(), rgb.y(), rgb.z()); }
+
+Vec3 ProbeView::colour() const {
+  const double* c = impl_->shaft->GetProperty()->GetColor();
+  return {c[0], c[1], c[2]};
+}
+
 void ProbeView::set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, bool in_contact, bool selected) {
   Impl& m = *impl_;
+  if (m.has_state && m.tip_at == tip && m.axis == axis && m.force == force && m.in_contact == in_contact &&
+      m.selected == selected && m.scale_at == m.force_scale)
+    return;
+  m.has_state = true;
+  m.tip_at = tip;
+  m.axis = axis;
+  m.force = force;
+  m.in_contact = in_contact;
+  m.selected = selected;
+  m.scale_at = m.force_scale;
   // The shaft rotates the x axis onto `axis`; the sphere only needs scale and position.
   const Vec3 a = axis.norm() > 0 ? Vec3(axis.normalized()) : Vec3::UnitZ();
   place_along(m.shaft_matrix, tip, a, m.shaft_length, m.tip_radius * 0.8);
@@ -121,6 +143,7 @@ void ProbeView::set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, 
 }
 
 void ProbeView::set_visible(bool visible) {
+  if (impl_->tip->GetVisibility() != static_cast<int>(visible)) impl_->has_state = false;  // the arrow follows
   impl_->tip->SetVisibility(visible);
   impl_->shaft->SetVisibility(visible);
   if (!visible) impl_->arrow->VisibilityOff();

@@ -21,8 +21,14 @@ class ProbeView {
   /// tip: probe tip, m. axis: unit vector from the tip out of the surface
   /// (the shaft goes that way). force: on the probe, N (drawn from the tip,
   /// force_scale m per N, at most 3 shaft lengths). Colours say whether the
-  /// probe touches the surface and whether it is the selected one.
+  /// probe touches the surface and whether it is the selected one. The same
+  /// state again changes nothing (no VTK object is modified, so an idle
+  /// window need not draw).
   void set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, bool in_contact, bool selected);
+  /// The probe's own colour (its shaft), e.g. the colour of its trace in the
+  /// force plot; RGB in [0, 1]. Default a light grey.
+  void set_colour(const Vec3& rgb);
+  Vec3 colour() const;
   /// Arrow length per newton, m/N.
   void set_force_scale(double metres_per_newton);
   void set_visible(bool visible);

@@ -96,10 +96,22 @@ TEST_F(Loader, MissingEntryPoint) {
 TEST_F(Loader, VersionMismatchNamesBothVersions) {
   const fs::path p = bad_ / "libpalpa_device_old_version.so";
   const std::string expected =
-      "device plugin '" + p.string() + "' implements interface palpa.device/0, but this program needs palpa.device/1";
+      "device plugin '" + p.string() + "' implements interface palpa.device/0, but this program needs palpa.device/2";
   EXPECT_EQ(message_of([&] { PluginLoader::load_file(p); }), expected);
   // The same through a search directory and a name.
   EXPECT_EQ(message_of([&] { PluginLoader({bad_}).load("old_version"); }), expected);
+}
+
+// A whole plugin of the previous interface (no palpa_device_options) is
+// refused by its version, naming both, not by the entry point it lacks.
+TEST_F(Loader, APluginOfInterfaceOneIsRefusedNamingBothVersions) {
+  const fs::path p = bad_ / "libpalpa_device_v1_plugin.so";
+  const std::string expected =
+      "device plugin '" + p.string() + "' implements interface palpa.device/1, but this program needs palpa.device/2";
+  EXPECT_EQ(message_of([&] { PluginLoader::load_file(p); }), expected);
+  EXPECT_EQ(message_of([&] { PluginLoader({bad_}).load("v1_plugin"); }), expected);
+  const auto names = PluginLoader({bad_}).available();
+  EXPECT_EQ(std::find(names.begin(), names.end(), "v1_plugin"), names.end());
 }
 
 // $PALPA_PLUGIN_PATH comes last: it adds plugins but cannot shadow the program's own;
@@ -117,7 +129,7 @@ TEST_F(Loader, EnvironmentPathAddsPluginsButCannotShadowThem) {
   EXPECT_EQ(loader.load("scripted").path(), fs::path(PALPA_PLUGIN_DIR) / "libpalpa_device_scripted.so");
   EXPECT_EQ(message_of([&] { loader.load("envonly"); }),
             "device plugin '" + (dir / "libpalpa_device_envonly.so").string() +
-                "' implements interface palpa.device/0, but this program needs palpa.device/1");
+                "' implements interface palpa.device/0, but this program needs palpa.device/2");
   std::string dirs;
   for (const auto& d : loader.search_path()) dirs += (dirs.empty() ? "" : ", ") + d.string();
   EXPECT_EQ(message_of([&] { loader.load("nosuch"); }),
@@ -195,7 +207,7 @@ TEST_F(Loader, RelativePluginFilesAreRefused) {
 // available() lists only what load() would load.
 TEST_F(Loader, AvailableListsOnlyLoadableNames) {
   const auto names = PluginLoader({bad_}).available();
-  for (const char* bad : {"old_version", "missing_read", "no_interface", "planted"})
+  for (const char* bad : {"old_version", "v1_plugin", "missing_read", "no_interface", "planted"})
     EXPECT_EQ(std::find(names.begin(), names.end(), bad), names.end()) << bad;
   for (const char* good : {"falcon", "igtl", "mouse", "scripted", "spacemouse"})
     EXPECT_NE(std::find(names.begin(), names.end(), good), names.end()) << good;

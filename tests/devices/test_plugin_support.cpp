@@ -43,6 +43,37 @@ TEST(Options, EveryMistakeHasItsMessage) {
             "x: unknown option 'b' (known options: rate, n)");
 }
 
+// The table-driven getters: defaults and ranges from the declaration.
+constexpr PalpaDeviceOption kTable[] = {
+    option_double("rate", "Hz", 1.0, 100.0, "60", "r"),
+    option_int("n", "", 0, 9, "3", "n"),
+    option_bool("loop", "true", "l"),
+    option_string("host", "127.0.0.1", "h"),
+    option_choice("mode", "client|server|relay", "client", "m"),
+};
+
+TEST(Options, TheTableGivesKeysDefaultsAndRanges) {
+  const Options defaults("", "x", kTable);
+  EXPECT_DOUBLE_EQ(defaults.number("rate"), 60.0);
+  EXPECT_EQ(defaults.integer("n"), 3);
+  EXPECT_TRUE(defaults.flag("loop"));
+  EXPECT_EQ(defaults.text("host"), "127.0.0.1");
+  EXPECT_EQ(defaults.choice("mode"), "client");
+  const Options given("rate=100;n=0;loop=no;mode=relay", "x", kTable);
+  EXPECT_DOUBLE_EQ(given.number("rate"), 100.0);
+  EXPECT_EQ(given.integer("n"), 0);
+  EXPECT_FALSE(given.flag("loop"));
+  EXPECT_EQ(given.choice("mode"), "relay");
+  EXPECT_EQ(message_of([] { Options("rate=101", "x", kTable).number("rate"); }), "x: option rate=101 is outside [1, 100]");
+  EXPECT_EQ(message_of([] { Options("n=10", "x", kTable).integer("n"); }), "x: option n=10 is outside [0, 9]");
+  EXPECT_EQ(message_of([] { Options("mode=peer", "x", kTable).choice("mode"); }),
+            "x: option mode='peer' must be client, server or relay");
+  EXPECT_EQ(message_of([] { Options("bogus=1", "x", kTable); }),
+            "x: unknown option 'bogus' (known options: rate, n, loop, host, mode)");
+  EXPECT_THROW(defaults.number("n"), std::logic_error);     // declared with another type
+  EXPECT_THROW(defaults.number("other"), std::logic_error);  // not declared
+}
+
 TEST(Support, CopyMessageAlwaysTerminates) {
   char buf[5];
   copy_message("abcdefgh", buf, sizeof buf);

@@ -46,17 +46,28 @@ namespace fc = palpa::plugins::falcon;
 constexpr unsigned kControlTimeoutMs = 1000;
 constexpr unsigned kIoTimeoutMs = 100;
 
+// The options: the form's fields and the parser's defaults and ranges.
+constexpr PalpaDeviceOption kOptions[] = {
+    option_file("firmware", 0u,
+                "Novint's firmware file (not shipped), uploaded when the Falcon has none loaded; "
+                "empty works with a Falcon whose firmware is already loaded."),
+    option_int("index", "", 0, 15, "0", "Which Falcon, when several are connected (0: the first)."),
+    option_double("max_force", "N", 0.01, 50.0, "8.9", "The force limit declared to the host (a Falcon gives about 9 N)."),
+    option_double("max_stiffness", "N/m", 1.0, 1e5, "1500", "The stiffness the device renders stably."),
+    option_double("motor_limit", "", 1.0, 32767.0, "10000",
+                  "The largest motor command magnitude (all three motors are scaled together)."),
+};
+
 std::string usb_error(int rc) { return libusb_error_name(rc); }
 
 class FalconDevice final : public DeviceImpl {
  public:
   explicit FalconDevice(const Options& o) {
-    o.check_known({"firmware", "index", "max_force", "max_stiffness", "motor_limit"});
-    firmware_ = o.get_string("firmware");
-    index_ = static_cast<int>(o.get_int("index", 0, 0, 15));
-    max_force_ = o.get_double("max_force", 8.9, 0.01, 50.0);
-    max_stiffness_ = o.get_double("max_stiffness", 1500.0, 1.0, 1e5);
-    motor_limit_ = o.get_double("motor_limit", 10000.0, 1.0, 32767.0);
+    firmware_ = o.text("firmware");
+    index_ = static_cast<int>(o.integer("index"));
+    max_force_ = o.number("max_force");
+    max_stiffness_ = o.number("max_stiffness");
+    motor_limit_ = o.number("motor_limit");
   }
   ~FalconDevice() override { stop(); }
 
@@ -435,4 +446,4 @@ std::unique_ptr<DeviceImpl> make_falcon(const Options& o) { return std::make_uni
 
 }  // namespace
 
-PALPA_EXPORT_DEVICE_PLUGIN("falcon", make_falcon)
+PALPA_EXPORT_DEVICE_PLUGIN("falcon", make_falcon, kOptions)

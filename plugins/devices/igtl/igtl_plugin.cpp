@@ -53,32 +53,45 @@ namespace {
 using namespace palpa::devices::plugin;
 namespace igtl_decoder = palpa::plugins::igtl;
 
+// The options: the form's fields and the parser's defaults and ranges.
+constexpr PalpaDeviceOption kOptions[] = {
+    option_choice("mode", "client|server", "client",
+                  "client: connect to host:port; server: listen on host:port for the tracker to connect."),
+    option_string("host", "127.0.0.1",
+                  "IPv4 address of the peer (client) or to bind (server; 0.0.0.0 listens on all, with a warning)."),
+    option_int("port", "", 0, 65535, "18944", "TCP port (0 with mode=server: any free port, named in the message)."),
+    option_string("device", "", "Accept poses only from this OpenIGTLink device name (empty: any)."),
+    option_choice("unit", "mm|m", "mm", "Length unit of incoming positions (OpenIGTLink's convention is mm)."),
+    option_double("stale_after", "s", 1e-3, 60.0, "0.1", "Input older than this is stale: the force sent is zero."),
+    option_string("force_name", "PalpaForce", "Device name of the SENSOR messages sent back (1 to 20 characters)."),
+    option_double("send_rate", "Hz", 1.0, 100000.0, "1000", "The most SENSOR messages sent per second."),
+    option_double("max_force", "N", 0.01, 1e4, "10", "The force limit declared to the host."),
+    option_double("workspace", "m", 1e-3, 100.0, "1", "Poses must satisfy |x|, |y|, |z| <= workspace."),
+    option_double("peer_timeout", "s", 0.05, 3600.0, "2",
+                  "Server: a peer that completed no message for this long is replaced by the next one."),
+};
+
 class IgtlDevice final : public DeviceImpl {
  public:
   explicit IgtlDevice(const Options& o) {
-    o.check_known({"mode", "host", "port", "device", "unit", "stale_after", "force_name", "send_rate", "max_force",
-                   "workspace", "peer_timeout"});
-    const std::string mode = o.get_string("mode", "client");
-    if (mode != "client" && mode != "server")
-      throw PluginError("igtl: option mode='" + mode + "' must be client or server");
-    server_ = mode == "server";
-    host_ = o.get_string("host", "127.0.0.1");
+    server_ = o.choice("mode") == "server";
+    host_ = o.text("host");
     in_addr probe{};
     if (inet_pton(AF_INET, host_.c_str(), &probe) != 1)
       throw PluginError("igtl: option host='" + host_ + "' is not an IPv4 address");
-    port_ = static_cast<int>(o.get_int("port", 18944, server_ ? 0 : 1, 65535));
-    device_filter_ = o.get_string("device");
-    const std::string unit = o.get_string("unit", "mm");
-    if (unit != "mm" && unit != "m") throw PluginError("igtl: option unit='" + unit + "' must be mm or m");
-    unit_scale_ = unit == "mm" ? 1e-3 : 1.0;
-    stale_after_ = o.get_double("stale_after", 0.1, 1e-3, 60.0);
-    force_name_ = o.get_string("force_name", "PalpaForce");
+    port_ = static_cast<int>(o.integer("port"));
+    // A client needs a port to connect to: the declared range, less 0.
+    if (!server_ && port_ == 0) (void)o.get_int("port", 18944, 1, 65535);
+    device_filter_ = o.text("device");
+    unit_scale_ = o.choice("unit") == "mm" ? 1e-3 : 1.0;
+    stale_after_ = o.number("stale_after");
+    force_name_ = o.text("force_name");
     if (force_name_.empty() || force_name_.size() > 20)
       throw PluginError("igtl: option force_name must have 1 to 20 characters");
-    send_period_ = 1.0 / o.get_double("send_rate", 1000.0, 1.0, 100000.0);
-    max_force_ = o.get_double("max_force", 10.0, 0.01, 1e4);
-    workspace_ = o.get_double("workspace", 1.0, 1e-3, 100.0);
-    peer_timeout_ = o.get_double("peer_timeout", 2.0, 0.05, 3600.0);
+    send_period_ = 1.0 / o.number("send_rate");
+    max_force_ = o.number("max_force");
+    workspace_ = o.number("workspace");
+    peer_timeout_ = o.number("peer_timeout");
     if (server_ && host_ == "0.0.0.0")
       warning_ = " (warning: listening on all addresses, so any computer that reaches this one can send poses)";
   }
@@ -379,4 +392,4 @@ std::unique_ptr<DeviceImpl> make_igtl(const Options& o) { return std::make_uniqu
 
 }  // namespace
 
-PALPA_EXPORT_DEVICE_PLUGIN("igtl", make_igtl)
+PALPA_EXPORT_DEVICE_PLUGIN("igtl", make_igtl, kOptions)

@@ -26,13 +26,19 @@ namespace {
 
 using namespace palpa::devices::plugin;
 
+// The options: the form's fields and the parser's defaults and ranges.
+constexpr PalpaDeviceOption kOptions[] = {
+    option_double("workspace", "m", 1e-3, 100.0, "0.5", "Half-size of the reachable cube around the origin."),
+    option_double("rate", "Hz", 1.0, 10000.0, "60", "The nominal rate at which the host feeds positions."),
+    option_int("buttons", "", 0, 32, "3", "The number of buttons the host reports."),
+};
+
 class MouseDevice final : public DeviceImpl {
  public:
   explicit MouseDevice(const Options& o) {
-    o.check_known({"workspace", "rate", "buttons"});
-    half_ = o.get_double("workspace", 0.5, 1e-3, 100.0);
-    rate_ = o.get_double("rate", 60.0, 1.0, 10000.0);
-    buttons_ = static_cast<std::uint32_t>(o.get_int("buttons", 3, 0, 32));
+    half_ = o.number("workspace");
+    rate_ = o.number("rate");
+    buttons_ = static_cast<std::uint32_t>(o.integer("buttons"));
     samples_.write(empty_sample());
   }
 
@@ -84,5 +90,5 @@ std::unique_ptr<DeviceImpl> make_mouse(const Options& o) { return std::make_uniq
 
 }  // namespace
 
-PALPA_EXPORT_DEVICE_PLUGIN("mouse", make_mouse)
+PALPA_EXPORT_DEVICE_PLUGIN("mouse", make_mouse, kOptions)
 PALPA_EXPORT_DEVICE_FEED()

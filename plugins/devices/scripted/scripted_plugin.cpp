@@ -25,21 +25,33 @@ namespace {
 using namespace palpa::devices::plugin;
 using palpa::plugins::Trajectory;
 
+// The options: the form's fields and the parser's defaults and ranges.
+constexpr PalpaDeviceOption kOptions[] = {
+    option_file("file", PALPA_OPTION_REQUIRED,
+                "The trajectory CSV to replay (t,x,y,z[,buttons]; positions in metres, world frame)."),
+    option_bool("loop", "false", "Start over at the first sample after the last one."),
+    option_double("time_scale", "", 1e-6, 1e6, "1", "Playback speed: 2 plays twice as fast, 0.5 half as fast."),
+    option_double("rate", "Hz", 1.0, 100000.0, "1000", "The nominal sample rate the device reports."),
+    option_double("max_force", "N", 0.0, 1e4, "10", "The largest force the device may be asked for (0: no force output)."),
+    option_double("workspace", "m", 1e-3, 1e3, "10",
+                  "Half-size of the cube around the origin every trajectory position must lie in; "
+                  "a file with a position outside it is refused."),
+};
+
 class ScriptedDevice final : public DeviceImpl {
  public:
   explicit ScriptedDevice(const Options& o) {
-    o.check_known({"file", "loop", "time_scale", "rate", "max_force", "workspace"});
     if (!o.has("file")) throw PluginError("scripted: option file is missing (file=/path/to/trajectory.csv)");
-    const double workspace = o.get_double("workspace", palpa::plugins::kDefaultWorkspace, 1e-3, 1e3);
+    const double workspace = o.number("workspace");
     try {
-      trajectory_ = Trajectory::load(o.get_string("file"), workspace);
+      trajectory_ = Trajectory::load(o.text("file"), workspace);
     } catch (const std::exception& e) {
       throw PluginError(std::string("scripted: ") + e.what());
     }
-    loop_ = o.get_bool("loop", false);
-    time_scale_ = o.get_double("time_scale", 1.0, 1e-6, 1e6);
-    rate_ = o.get_double("rate", 1000.0, 1.0, 100000.0);
-    max_force_ = o.get_double("max_force", 10.0, 0.0, 1e4);
+    loop_ = o.flag("loop");
+    time_scale_ = o.number("time_scale");
+    rate_ = o.number("rate");
+    max_force_ = o.number("max_force");
     PalpaForceCommand zero{};
     commands_.write(zero);
   }
@@ -123,4 +135,4 @@ std::unique_ptr<DeviceImpl> make_scripted(const Options& o) { return std::make_u
 
 }  // namespace
 
-PALPA_EXPORT_DEVICE_PLUGIN("scripted", make_scripted)
+PALPA_EXPORT_DEVICE_PLUGIN("scripted", make_scripted, kOptions)

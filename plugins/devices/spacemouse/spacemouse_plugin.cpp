@@ -32,6 +32,15 @@ namespace {
 using namespace palpa::devices::plugin;
 namespace sm = palpa::plugins::spacemouse;
 
+// The options: the form's fields and the parser's defaults and ranges.
+constexpr PalpaDeviceOption kOptions[] = {
+    option_string("path", "", "The hidraw node to open (e.g. /dev/hidraw3); empty: the first 3Dconnexion device found."),
+    option_double("speed", "m/s", 1e-6, 10.0, "0.1", "Probe speed at full deflection of the cap."),
+    option_double("full_scale", "", 1.0, 32767.0, "350", "The HID axis value at full deflection."),
+    option_double("deadzone", "", 0.0, 0.9, "0.05", "Fraction of full scale ignored around rest."),
+    option_double("workspace", "m", 1e-3, 10.0, "0.1", "Half-size of the cube the probe stays in, around its start point."),
+};
+
 std::string narrow(const wchar_t* w) {
   if (w == nullptr) return "unknown error";
   std::string s;
@@ -49,12 +58,11 @@ struct Published {
 class SpaceMouseDevice final : public DeviceImpl {
  public:
   explicit SpaceMouseDevice(const Options& o) {
-    o.check_known({"path", "speed", "full_scale", "deadzone", "workspace"});
-    path_ = o.get_string("path");
-    rate_.max_speed = o.get_double("speed", 0.1, 1e-6, 10.0);
-    rate_.full_scale = o.get_double("full_scale", 350.0, 1.0, 32767.0);
-    rate_.deadzone = o.get_double("deadzone", 0.05, 0.0, 0.9);
-    half_ = o.get_double("workspace", 0.1, 1e-3, 10.0);
+    path_ = o.text("path");
+    rate_.max_speed = o.number("speed");
+    rate_.full_scale = o.number("full_scale");
+    rate_.deadzone = o.number("deadzone");
+    half_ = o.number("workspace");
   }
   ~SpaceMouseDevice() override { stop(); }
 
@@ -190,4 +198,4 @@ std::unique_ptr<DeviceImpl> make_spacemouse(const Options& o) { return std::make
 
 }  // namespace
 
-PALPA_EXPORT_DEVICE_PLUGIN("spacemouse", make_spacemouse)
+PALPA_EXPORT_DEVICE_PLUGIN("spacemouse", make_spacemouse, kOptions)
