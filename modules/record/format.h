@@ -89,7 +89,7 @@ struct EventRecord {
     e.tick = tick;
     e.time = time;
     const std::size_t n = std::min(text.size(), sizeof(e.text) - 1);
-    std::memcpy(e.text, text.data(), n);
+    if (n > 0) std::memcpy(e.text, text.data(), n);  // an empty view may hold nullptr
     return e;
   }
 };
