@@ -522,6 +522,7 @@ void Workbench::update() {
   if (v.tick > 0) {
     time_ = v.time - epoch_;
     loop_time_ = v.time;
+    loop_tick_ = v.tick;
   }
   // A breathing organ moves: every placed mouse probe's tip follows it.
   if (field() && field()->breathing.enabled)
@@ -539,6 +540,10 @@ void Workbench::update() {
     p.output.flags = r.flags;
     p.output.fault = static_cast<haptics::SafetyFault>(r.fault);
     p.output.enabled = r.enabled != 0;
+    p.output.contact_point = haptics::to_vec(r.contact_point);
+    p.output.contact_normal = haptics::to_vec(r.contact_normal);
+    p.output.normal_force = r.in_contact ? std::abs(p.output.force.dot(p.output.contact_normal)) : 0.0;
+    p.output.buttons = r.sample.buttons;
     if (!p.host_fed) {
       // Device probes: where the loop put them (once the device reads).
       p.placed = (r.sample.status & PALPA_STATUS_VALID) != 0;
@@ -550,6 +555,24 @@ void Workbench::update() {
       p.wants_output = false;
     }
   }
+}
+
+std::optional<Vec3> Workbench::finding_point(int id) const {
+  for (const Probe& p : probes_) {
+    if (p.id != id) continue;
+    if (!p.placed) return std::nullopt;
+    if (p.output.in_contact) return p.output.contact_point;
+    const auto f = field();
+    return f ? f->to_organ(p.tip, loop_time_) : p.tip;
+  }
+  return std::nullopt;
+}
+
+bool Workbench::record_event(record::EventRecord e) {
+  if (!recorder_) return false;
+  e.tick = loop_tick_;
+  e.time = loop_time_;
+  return recorder_->push_event(e);
 }
 
 std::vector<IndexRange> Workbench::take_surface_changes(std::vector<float>& stream) {

@@ -41,6 +41,7 @@
 #include <functional>
 #include <span>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -79,6 +80,10 @@ struct ProbeReadout {
   std::uint32_t flags = 0;    ///< haptics::SafetyFlag bits
   haptics::SafetyFault fault = haptics::SafetyFault::None;
   bool enabled = false;       ///< force output enabled (devices with force output)
+  Vec3 contact_point = Vec3::Zero();   ///< on the undeformed surface, organ frame, m (in contact)
+  Vec3 contact_normal = Vec3::Zero();  ///< unit, there (in contact)
+  double normal_force = 0;    ///< N: the force along the contact normal (0 out of contact)
+  std::uint32_t buttons = 0;  ///< the device's buttons as read (bit i: button i pressed)
 };
 
 /// One probe. Mouse probes (host_fed) are pressed `depth` into the organ at
@@ -229,6 +234,18 @@ class Workbench {
   /// s of loop time since the recording started (0 when not recording).
   double recording_elapsed() const { return recorder_ ? loop_time_ - record_start_time_ : 0.0; }
 
+  /// Where probe `id` marks a finding (exam mode), organ frame, m: its
+  /// contact point on the undeformed surface when in contact, else its tip
+  /// (mapped into the organ frame at the loop's time); nullopt for no such
+  /// probe or one not placed.
+  std::optional<Vec3> finding_point(int id) const;
+  /// Adds an event (a trainee's Mark, a Note) to the recording, with the
+  /// loop's latest tick and time; false when not recording or the queue is
+  /// full. GUI thread only: in the workbench nothing else pushes to the
+  /// recorder's own event queue (the loop's records reach the writer
+  /// through the loop's queues), so the queue keeps its one producer.
+  bool record_event(record::EventRecord e);
+
   /// Stops the loop's threads (devices get zero force; mouse probes are
   /// not read) and resume() starts them again where they stopped: the
   /// window's replay. suspend() throws std::logic_error while recording.
@@ -291,6 +308,7 @@ class Workbench {
   std::vector<float> pulled_;  // pull_surface's copy of the mailbox (4 floats per vertex)
   double time_ = 0;
   double loop_time_ = 0;  // s, the loop clock's time of the latest tick read
+  std::uint64_t loop_tick_ = 0;  // the latest tick read
 
   std::unique_ptr<record::Recorder> recorder_;  // null: not recording
   double record_start_time_ = 0;                // s, loop clock when the recording started
