@@ -100,5 +100,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "palpa: %s\n", window.error_text().toStdString().c_str());
     QMessageBox::critical(&window, "Palpa: could not open " + QString::fromStdString(file), window.error_text());
   }
+  // No FILE: the scenario opened last, if any (QSettings session/last_scenario).
+  if (file.empty()) window.reopen_last_scenario();
   return app.exec();
 }

@@ -3,6 +3,8 @@
 #include "app/gui/main_window.h"
 
 #include "app/gui/device_dialog.h"
+#include "app/gui/diagnostics_panel.h"
+#include "app/gui/exam_panel.h"
 #include "app/gui/force_plot.h"
 #include "app/gui/replay_panel.h"
 #include "app/gui/session_browser.h"
@@ -106,15 +108,17 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
   build_ui();
   build_menus();
   build_session_ui();
+  build_window_parts();
   load_settings();
   replay_dock_->hide();  // a replay starts from the browser or the menu, never from saved state
+  exam_dock_->hide();    // an exam starts from the Mode menu, never from saved state
   browser_->set_folder(sessions_folder_);
   open_default_organ();
 
   // Frame timer: the haptic loop runs on its own threads; each frame reads
   // its state and draws.
   clock_.start();
-  connect(&frame_timer_, &QTimer::timeout, this, &MainWindow::advance);
+  connect(&frame_timer_, &QTimer::timeout, this, &MainWindow::frame_tick);
   frame_timer_.start(16);
 }
 
@@ -224,20 +228,12 @@ void MainWindow::build_ui() {
   auto* readouts_layout = new QFormLayout(readouts);
   force_label_ = new QLabel("0.00 N");
   depth_label_ = new QLabel("0.0 mm");
-  haptic_label_ = new QLabel("0 Hz");
-  frame_label_ = new QLabel("0 fps");
   force_label_->setObjectName("forceReadout");
   depth_label_->setObjectName("depthReadout");
-  haptic_label_->setObjectName("hapticRateReadout");
-  frame_label_->setObjectName("frameRateReadout");
   readouts_layout->addRow("Force", force_label_);
   readouts_layout->addRow("Indentation", depth_label_);
-  p99_label_ = new QLabel("0 us");
-  misses_label_ = new QLabel("0");
   device_label_ = new QLabel;
   warnings_label_ = new QLabel;
-  p99_label_->setObjectName("tickP99Readout");
-  misses_label_->setObjectName("missesReadout");
   device_label_->setObjectName("deviceStatus");
   warnings_label_->setObjectName("loopWarnings");
   device_label_->setWordWrap(true);
@@ -247,10 +243,6 @@ void MainWindow::build_ui() {
   reenable_button_->setObjectName("reenableDevice");
   reenable_button_->setToolTip("Re-enable force output of the selected probe's device (clears a latched fault)");
   connect(reenable_button_, &QPushButton::clicked, this, &MainWindow::reenable_selected);
-  readouts_layout->addRow("Haptic rate", haptic_label_);
-  readouts_layout->addRow("Tick p99", p99_label_);
-  readouts_layout->addRow("Missed deadlines", misses_label_);
-  readouts_layout->addRow("Frame rate", frame_label_);
   readouts_layout->addRow("Device", device_label_);
   readouts_layout->addRow(reenable_button_);
   readouts_layout->addRow(warnings_label_);
@@ -429,13 +421,11 @@ QWidget* MainWindow::build_material_panel() {
 void MainWindow::build_menus() {
   QMenu* file = menuBar()->addMenu("&File");
   QAction* open = file->addAction("&Open...", this, [this] {
-    const QString path = QFileDialog::getOpenFileName(
-        this, "Open an organ mesh or a scenario", QString(),
-        "Organs and scenarios (*.obj *.stl *.ply *.off *.vtk *.vtp *.json);;"
-        "Scenarios (*.json);;Meshes (*.obj *.stl *.ply *.off *.vtk *.vtp);;All files (*)");
+    const QString path =
+        QFileDialog::getOpenFileName(this, "Open an organ mesh or a scenario", QString(), open_dialog_filter());
     if (!path.isEmpty()) open_file(path);
   });
-  open->setToolTip("Open an organ mesh (OBJ, STL, PLY, OFF, VTK, VTP) or a scenario file (.json)");
+  open->setToolTip("Open an organ mesh (OBJ, STL, PLY, OFF, VTK, VTP, TRIAN) or a scenario file (.json)");
   file->addAction("Open &default organ", this, &MainWindow::open_default_organ);
   recent_menu_ = file->addMenu("Open &recent");
   file->addSeparator();
@@ -553,6 +543,7 @@ void MainWindow::save_settings() const {
 }
 
 void MainWindow::closeEvent(QCloseEvent* event) {
+  if (mode_ == WorkbenchMode::Exam) set_mode(WorkbenchMode::Explore);  // the docks as they were, for the saved layout
   if (recording()) stop_recording();
   save_settings();
   QMainWindow::closeEvent(event);
@@ -594,6 +585,8 @@ bool MainWindow::open_mesh(const QString& path) {
     return false;
   }
   add_recent(info.absoluteFilePath());
+  organ_path_ = info.absoluteFilePath();  // a unit change reloads it
+  unit_index_ = unit_box_->currentIndex();
   clear_error();
   statusBar()->showMessage("Opened " + info.fileName(), 5000);
   return true;
@@ -602,6 +595,11 @@ bool MainWindow::open_mesh(const QString& path) {
 bool MainWindow::can_open(const QString& path) {
   static const QStringList kSuffixes = {"json", "obj", "stl", "ply", "off", "vtk", "vtp", "trian"};
   return kSuffixes.contains(QFileInfo(path).suffix().toLower());
+}
+
+QString MainWindow::open_dialog_filter() {
+  return "Organs and scenarios (*.obj *.stl *.ply *.off *.vtk *.vtp *.trian *.json);;"
+         "Scenarios (*.json);;Meshes (*.obj *.stl *.ply *.off *.vtk *.vtp *.trian);;All files (*)";
 }
 
 bool MainWindow::is_scenario_file(const QString& path) { return QFileInfo(path).suffix().toLower() == "json"; }
@@ -705,7 +703,8 @@ void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
 
   // Camera on the whole organ.
   render::frame_camera(vtk_->renderer, view_->bounds(), Vec3(0.3, -1.0, 0.8), Vec3::UnitZ());
-  vtk_->window->Render();
+  after_new_organ();
+  draw();
 }
 
 void MainWindow::add_recent(const QString& path) {
@@ -1144,6 +1143,7 @@ bool MainWindow::mouse_move(QMouseEvent* e) {
   } else {
     hover_view_->set_visible(false);
   }
+  scene_dirty_ = true;
   return false;
 }
 
@@ -1176,30 +1176,44 @@ bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
     case QEvent::MouseMove: return mouse_move(static_cast<QMouseEvent*>(event));
     case QEvent::MouseButtonRelease: return mouse_release(static_cast<QMouseEvent*>(event));
     case QEvent::Wheel: return wheel(static_cast<QWheelEvent*>(event));
-    case QEvent::Leave: hover_view_->set_visible(false); return false;
+    case QEvent::Leave: hover_view_->set_visible(false); scene_dirty_ = true; return false;
     default: return QMainWindow::eventFilter(watched, event);
   }
 }
 
 // ---------------------------------------------------------------------------
 // The frame: the loop's latest state, the changed stream entries to the GPU, draw.
-void MainWindow::advance() {
+void MainWindow::advance() { frame(true); }
+void MainWindow::frame_tick() { frame(false); }
+
+void MainWindow::frame(bool always_draw) {
   if (in_replay()) {
     // The replay panel moves the player; the live loop is stopped.
-    vtk_->window->Render();
-    ++frames_in_window_;
+    if (always_draw || scene_changed()) {
+      draw();
+      ++frames_in_window_;
+    }
     return;
   }
   if (!workbench_.has_organ() || !view_) return;
   const double now = clock_.nsecsElapsed() * 1e-9;
+  const double loop_time_before = workbench_.loop_time();
   workbench_.update();
   if (workbench_.recording()) update_recording_status();
   pull_surface();
   apply_frame_transform();
   sync_probe_views();
   update_readouts();
-  vtk_->window->Render();
-  ++frames_in_window_;
+  // The exam's countdown runs on the loop's time.
+  if (mode_ == WorkbenchMode::Exam) {
+    const double dt = workbench_.loop_time() - loop_time_before;
+    if (dt > 0 && dt < 1.0) advance_exam_time(dt);
+    update_exam_frame();
+  }
+  if (always_draw || scene_changed()) {
+    draw();
+    ++frames_in_window_;
+  }
 
   // Frame rate over the last second; the haptic rate is the loop's own.
   if (now - rate_window_start_ >= 1.0) {
@@ -1218,11 +1232,13 @@ void MainWindow::rebuild_lesion_views() {
   if (const scenario::Resolved* sc = workbench_.scenario()) {
     for (const tissue::Lesion& l : sc->lesions) {
       if (l.visibility != tissue::Visibility::Shown && !reveal_action_->isChecked()) continue;
+      if (mode_ == WorkbenchMode::Exam && !reveal_action_->isChecked()) continue;  // none until Finish
       lesion_views_.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
       lesion_views_.back()->add_to(vtk_->inclusions);
     }
   }
   apply_frame_transform();
+  scene_dirty_ = true;
 }
 
 std::size_t MainWindow::lesions_drawn() const { return lesion_views_.size(); }
@@ -1233,6 +1249,7 @@ void MainWindow::apply_frame_transform() {
   frame_time_ = workbench_.loop_time();
   const auto field = workbench_.field();
   if (!view_ || !field || !field->breathing.enabled) return;
+  scene_dirty_ = true;  // the organ moved
   const Eigen::Matrix4d organ_to_world = field->organ_to_world(frame_time_);
   view_->set_transform(organ_to_world);
   for (auto& lv : lesion_views_) lv->set_transform(organ_to_world);
@@ -1247,6 +1264,7 @@ void MainWindow::pull_surface() {
       const std::vector<float> rest(4 * view_->mesh().vertex_count(), 0.0f);
       view_->update_all(rest);
       view_at_rest_ = true;
+      scene_dirty_ = true;
     }
     return;
   }
@@ -1259,6 +1277,7 @@ void MainWindow::pull_surface() {
       [&](std::span<const float> stream, std::span<const IndexRange> ranges) {
         if (ranges.empty()) return;
         view_->update(stream, ranges);
+        scene_dirty_ = true;
       },
       everything);
   view_at_rest_ = false;
@@ -1329,10 +1348,8 @@ void MainWindow::update_readouts() {
   const double now = clock_.isValid() ? clock_.nsecsElapsed() * 1e-9 : 0.0;
   if (figures_shown_at_ >= 0 && now - figures_shown_at_ < 0.5) return;
   figures_shown_at_ = now;
-  haptic_label_->setText(QString::number(haptic_rate_, 'f', 0) + " Hz");
-  p99_label_->setText(QString::number(st.tick_duration.p99_us, 'f', 1) + " us");
-  misses_label_->setText(QString::number(st.deadline_misses));
-  frame_label_->setText(QString::number(frame_rate_, 'f', 1) + " fps");
+  diagnostics_->feed({workbench_.time(), st.ticks, st.deadline_misses, haptic_rate_, st.tick_duration.p99_us,
+                      frame_rate_, renders_});
   // Loop warnings (no real-time priority, missed deadlines, ...).
   QStringList warnings;
   for (const auto& w : haptics::describe_warnings(workbench_.view().warnings)) warnings << QString::fromStdString(w);
@@ -1589,7 +1606,7 @@ bool MainWindow::open_replay(const QString& path) {
   sync_session_actions();
   clear_error();
   statusBar()->showMessage("Replaying " + info.fileName() + " (the live loop is paused)", 5000);
-  vtk_->window->Render();
+  draw();
   return true;
 }
 
@@ -1611,7 +1628,7 @@ void MainWindow::leave_replay() {
   sync_probe_views();
   sync_session_actions();
   statusBar()->showMessage("Back to the live session", 3000);
-  vtk_->window->Render();
+  draw();
 }
 
 // The replayed tick: its surface, probes (where the devices put them, the
@@ -1619,6 +1636,7 @@ void MainWindow::leave_replay() {
 void MainWindow::draw_replay() {
   const SessionPlayer* p = replay_panel_->player();
   if (!p || !replay_view_) return;
+  scene_dirty_ = true;
   replay_view_->update_all(p->surface().stream());
   const auto& field = p->session().model->field;
   if (field && field->breathing.enabled) {

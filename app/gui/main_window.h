@@ -8,6 +8,9 @@
 // browser and in-app replay with a timeline (docs/RECORDING.md, "In the
 // workbench"). Errors appear in the window; the scene stays as it was.
 
+#include "app/gui/exam.h"
+#include "app/gui/mode.h"
+#include "app/gui/view_tools.h"
 #include "app/gui/workbench.h"
 
 #include <QElapsedTimer>
@@ -43,6 +46,8 @@ class SurfaceView;
 
 namespace palpa::app {
 
+class DiagnosticsPanel;
+class ExamPanel;
 class ForcePlot;
 class ReplayPanel;
 class SessionBrowser;
@@ -71,6 +76,8 @@ class MainWindow : public QMainWindow {
   bool open_file(const QString& path);
   /// Whether File > Open and drops take this file (a scenario or a mesh, by suffix).
   static bool can_open(const QString& path);
+  /// File > Open's filters: every format can_open() takes.
+  static QString open_dialog_filter();
   static bool is_scenario_file(const QString& path);
   /// The first local file of a drag that can be opened (empty: none), and
   /// the drop handler: opens it; false when there is none or it fails.
@@ -159,8 +166,59 @@ class MainWindow : public QMainWindow {
   QString device_status_text() const;
 
   /// Reads the haptic loop's latest state, moves the changed stream entries
-  /// to the GPU and draws one frame.
+  /// to the GPU and draws one frame (always: tests and scripts call it).
   void advance();
+  /// What the frame timer calls: advance()'s work, but it draws only when
+  /// something shown changed (the surface stream, probe glyphs, a breathing
+  /// organ, a scene edit, a replayed tick), so an idle window draws nothing.
+  void frame_tick();
+  /// Frames this window drew (advance(), frame_tick() and scene edits).
+  std::uint64_t renders() const { return renders_; }
+
+  // Modes (mode.h): the Mode menu and the toolbar's mode box.
+  WorkbenchMode mode() const { return mode_; }
+  /// Explore and Author: the workbench as it is. Exam needs a scenario
+  /// (else the error says so, the mode stays and false is returned): its
+  /// lesions are not drawn, no readout gives one away (force arrows off and
+  /// their toggle disabled, the Material and Readouts docks hidden), the
+  /// Exam dock shows the countdown, the pressure gauge and the marks.
+  /// Leaving Exam restores the view settings it changed.
+  bool set_mode(WorkbenchMode mode);
+  /// open_scenario, then Exam mode (File > Open scenario as trainee).
+  bool open_scenario_as_trainee(const QString& path);
+  ExamPanel* exam_panel() const { return exam_panel_; }
+  /// Exam (key M, the toolbar's Mark, a device's first button): asks the
+  /// size and consistency of a finding at the selected probe's contact
+  /// point (its tip when not in contact) in a MarkDialog (non-modal; its OK
+  /// calls add_mark). False (said in the status bar) when no exam runs or
+  /// the selected probe is not placed.
+  bool request_mark();
+  /// Exam: adds a mark (organ frame, m; diameter m, 0: not given;
+  /// consistency), listed in the Exam dock and, when recording, written as
+  /// a Mark event of the session. False when no exam runs.
+  bool add_mark(const Vec3& point, double diameter, const QString& consistency);
+  void remove_mark(int index);
+  /// Exam: the marks against the truth in the Exam dock, the lesions
+  /// revealed (View > Reveal lesions enabled again).
+  void finish_exam();
+  /// Exam time passes (s): the countdown; the frame timer passes the loop's
+  /// time between frames.
+  void advance_exam_time(double seconds);
+
+  // View.
+  void reset_camera();
+  void set_standard_view(StandardView view);
+  DiagnosticsPanel* diagnostics() const { return diagnostics_; }
+  /// The status bar's sustained-misses warning (empty: none).
+  QString diagnostics_warning() const;
+  /// The scenario opened last (kept in QSettings; empty: none).
+  QString last_scenario() const;
+  /// Opens last_scenario() (`palpa` with no FILE); false when there is none
+  /// or it fails (the error shown).
+  bool reopen_last_scenario();
+
+ signals:
+  void modeChanged(WorkbenchMode mode);
 
  protected:
   bool eventFilter(QObject* watched, QEvent* event) override;
@@ -174,6 +232,19 @@ class MainWindow : public QMainWindow {
   // so an idle window draws nothing.
   void build_menus();
   void build_session_ui();
+  // Issue 10's parts: modes and the exam, the main toolbar, View and Help
+  // additions, diagnostics, tooltips (main_window_parts.cpp).
+  void build_window_parts();
+  void frame(bool always_draw);
+  void draw();
+  bool scene_changed();
+  void enter_exam();
+  void leave_exam();
+  void restart_exam();
+  void sync_mode_controls();
+  void after_new_organ();
+  void update_exam_frame();
+  void reload_with_unit();
   void sync_session_actions();
   void update_recording_status();
   void draw_replay();
@@ -225,10 +296,6 @@ class MainWindow : public QMainWindow {
   QListWidget* probe_list_ = nullptr;
   QLabel* force_label_ = nullptr;
   QLabel* depth_label_ = nullptr;
-  QLabel* haptic_label_ = nullptr;
-  QLabel* frame_label_ = nullptr;
-  QLabel* p99_label_ = nullptr;
-  QLabel* misses_label_ = nullptr;
   QLabel* device_label_ = nullptr;
   QLabel* warnings_label_ = nullptr;
   QPushButton* reenable_button_ = nullptr;
@@ -293,6 +360,34 @@ class MainWindow : public QMainWindow {
   std::uint64_t frames_in_window_ = 0;
   double haptic_rate_ = 0, frame_rate_ = 0;
   double figures_shown_at_ = -1;  // s: the loop's figures are shown twice a second (each change repaints the window)
+
+  // Drawing only on change.
+  std::uint64_t renders_ = 0;
+  bool scene_dirty_ = true;                 // a scene edit or new stream entries since the last draw
+  unsigned long long props_drawn_at_ = 0;   // the props' newest redraw time at the last draw
+
+  // Modes, the exam, diagnostics, view tools.
+  WorkbenchMode mode_ = WorkbenchMode::Explore;
+  struct ViewSettings {  // what Exam mode changes, restored when leaving it
+    bool arrows = true, reveal = false, material = true, readouts = true;
+  };
+  ViewSettings before_exam_;
+  ExamPanel* exam_panel_ = nullptr;
+  QDockWidget* exam_dock_ = nullptr;
+  QDockWidget* material_dock_ = nullptr;
+  QDockWidget* readouts_dock_ = nullptr;
+  QDockWidget* diagnostics_dock_ = nullptr;
+  DiagnosticsPanel* diagnostics_ = nullptr;
+  QLabel* diagnostics_warning_ = nullptr;
+  QComboBox* mode_box_ = nullptr;
+  std::map<WorkbenchMode, QAction*> mode_actions_;
+  QAction* mark_action_ = nullptr;
+  QAction* finish_action_ = nullptr;
+  QAction* orientation_action_ = nullptr;
+  std::unique_ptr<OrientationMarker> orientation_marker_;
+  std::uint32_t last_buttons_ = 0;          // the selected probe's device buttons at the last frame
+  int unit_index_ = 0;                      // the unit the organ file was opened with
+  QString organ_path_;                      // the organ's mesh file (empty: the default organ or a scenario's)
 };
 
 }  // namespace palpa::app
