@@ -304,6 +304,17 @@ void MainWindow::build_window_parts() {
   tools->addWidget(mode_box_);
   tools->addAction(mark_action_);
 
+  // During an exam nothing reveals the lesions before Finish (not even a
+  // programmatic trigger of the disabled action).
+  connect(reveal_action_, &QAction::toggled, this, [this](bool on) {
+    if (!on || mode_ != WorkbenchMode::Exam || exam_panel_->finished()) return;
+    {
+      const QSignalBlocker block(reveal_action_);
+      reveal_action_->setChecked(false);
+    }
+    rebuild_lesion_views();
+  });
+
   // The organ's unit applies to the organ opened from a file.
   connect(unit_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, [this] { reload_with_unit(); });
 

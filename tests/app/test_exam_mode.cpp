@@ -122,6 +122,7 @@ TEST_F(ExamModeTest, ExamModeHidesWhatGivesALesionAwayAndLeavingRestoresTheView)
     s.lesions[0].lesion.visibility = tissue::Visibility::Shown;
   });
   ASSERT_TRUE(w->open_file(q(file))) << w->error_text().toStdString();
+  EXPECT_FALSE(w->findChild<QAction*>("revealLesions")->isChecked());
   const std::size_t drawn = w->lesions_drawn();
   EXPECT_GE(drawn, 1u);
   auto* arrows = w->findChild<QAction*>("showForceArrows");
