@@ -44,7 +44,8 @@ void MainWindow::build_authoring_ui(QMenu* file, QAction* before, QMenu* edit) {
   connect(document_, &ScenarioDocument::error, this, [this](const QString& text) { show_error(text); });
   connect(document_, &ScenarioDocument::modifiedChanged, this, [this] { update_document_title(); });
 
-  // File: New scenario, Save, Save As (before Screenshot).
+  // File: New scenario, Save, Save As (before Screenshot). Save and Save As
+  // have no shortcut: Ctrl+S is the screenshot's, Ctrl+Shift+S Stop recording.
   QAction* new_scenario_action = new QAction("&New scenario", this);
   new_scenario_action->setObjectName("newScenario");
   new_scenario_action->setShortcut(QKeySequence::New);
@@ -59,7 +60,6 @@ void MainWindow::build_authoring_ui(QMenu* file, QAction* before, QMenu* edit) {
   connect(save, &QAction::triggered, this, [this] { save_document(); });
   QAction* save_as = new QAction("Save scenario &as...", this);
   save_as->setObjectName("saveScenarioAs");
-  save_as->setShortcut(QKeySequence::SaveAs);
   save_as->setToolTip("Save the scenario to a new file (.json, docs/SCENARIO.md)");
   connect(save_as, &QAction::triggered, this, [this] {
     const QString path =
@@ -86,7 +86,7 @@ void MainWindow::build_authoring_ui(QMenu* file, QAction* before, QMenu* edit) {
   undo->setToolTip("Undo the last edit of the scenario");
   QAction* redo = document_->undo_stack()->createRedoAction(this, "&Redo");
   redo->setObjectName("redo");
-  redo->setShortcuts({QKeySequence::Redo, QKeySequence("Ctrl+Shift+Z")});
+  redo->setShortcuts({QKeySequence("Ctrl+Shift+Z"), QKeySequence("Ctrl+Y")});
   redo->setToolTip("Redo the edit undone last");
   edit->insertAction(first, undo);
   edit->insertAction(first, redo);
