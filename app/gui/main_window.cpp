@@ -2,6 +2,7 @@
 
 #include "app/gui/main_window.h"
 
+#include "app/gui/authoring_tools.h"
 #include "app/gui/device_dialog.h"
 #include "app/gui/diagnostics_panel.h"
 #include "app/gui/exam_panel.h"
@@ -124,6 +125,7 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
 
 MainWindow::~MainWindow() {
   frame_timer_.stop();
+  if (author_tools_) author_tools_->attach(nullptr, 0);  // its handles go before the renderers
   if (replay_panel_) replay_panel_->close();
   replay_probe_views_.clear();
   replay_lesion_views_.clear();
@@ -139,6 +141,7 @@ MainWindow::~MainWindow() {
 }
 
 vtkRenderer* MainWindow::renderer() const { return vtk_->renderer; }
+vtkRenderer* MainWindow::inclusions_renderer() const { return vtk_->inclusions; }
 
 const render::ProbeView* MainWindow::probe_view(int id) const {
   auto it = probe_views_.find(id);
@@ -433,7 +436,7 @@ void MainWindow::build_menus() {
     const QString path = QFileDialog::getSaveFileName(this, "Save screenshot", "palpa.png", "PNG (*.png)");
     if (!path.isEmpty()) save_screenshot(path);
   });
-  shot->setShortcut(QKeySequence("Ctrl+S"));
+  shot->setShortcut(QKeySequence("Ctrl+Shift+X"));
   file->addSeparator();
   QAction* quit = file->addAction("&Quit", this, &QWidget::close);
   quit->setShortcut(QKeySequence::Quit);
@@ -442,8 +445,8 @@ void MainWindow::build_menus() {
   undo_material_ = edit->addAction("&Undo material edit (the scenario's tissues again)", this,
                                    &MainWindow::restore_tissue_map);
   undo_material_->setObjectName("undoMaterialEdit");
-  undo_material_->setShortcut(QKeySequence::Undo);
   undo_material_->setEnabled(false);
+  build_authoring_ui(file, shot, edit);  // Ctrl+Z / Ctrl+Shift+Z: the scenario's undo history
 
   QMenu* probe = menuBar()->addMenu("&Probe");
   probe->addAction("&Add probe", this, &MainWindow::add_probe)->setShortcut(QKeySequence("Ctrl+P"));
@@ -543,6 +546,10 @@ void MainWindow::save_settings() const {
 }
 
 void MainWindow::closeEvent(QCloseEvent* event) {
+  if (!confirm_discard("closing the window")) {
+    event->ignore();
+    return;
+  }
   if (mode_ == WorkbenchMode::Exam) set_mode(WorkbenchMode::Explore);  // the docks as they were, for the saved layout
   if (recording()) stop_recording();
   save_settings();
@@ -570,6 +577,7 @@ QString MainWindow::task_text() const { return task_text_->text(); }
 // Organs.
 bool MainWindow::open_mesh(const QString& path) {
   const QFileInfo info(path);
+  if (!confirm_discard("opening " + info.fileName())) return false;
   if (!info.exists()) {
     recent_.removeAll(path);
     rebuild_recent_menu();
@@ -579,7 +587,10 @@ bool MainWindow::open_mesh(const QString& path) {
   try {
     const auto unit = static_cast<mesh::MeshUnit>(unit_box_->currentIndex());
     mesh::Organ organ = mesh::load_organ(path.toStdString(), unit);
+    const double unit_m = organ.unit_m;
     install_organ(std::move(organ));
+    organ_file_ = info.absoluteFilePath();
+    organ_unit_ = unit_m == 1e-2 ? "cm" : unit_m == 1e-3 ? "mm" : "m";
   } catch (const std::exception& e) {
     show_error(QString("Could not open %1: %2").arg(info.fileName(), QString::fromStdString(e.what())));
     return false;
@@ -610,6 +621,7 @@ bool MainWindow::open_file(const QString& path) { return is_scenario_file(path) 
 // field) before anything in the window changes.
 bool MainWindow::open_scenario(const QString& path) {
   const QFileInfo info(path);
+  if (!confirm_discard("opening " + info.fileName())) return false;
   if (!info.exists()) {
     recent_.removeAll(path);
     rebuild_recent_menu();
@@ -629,8 +641,11 @@ bool MainWindow::open_scenario(const QString& path) {
 }
 
 void MainWindow::open_default_organ() {
+  if (!confirm_discard("opening the default organ")) return;
   try {
     install_organ(mesh::load_default_organ());
+    organ_file_ = "default";
+    organ_unit_ = "m";
     clear_error();
     if (!workbench_.organ().note.empty()) statusBar()->showMessage(QString::fromStdString(workbench_.organ().note));
   } catch (const std::exception& e) {
@@ -700,6 +715,8 @@ void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
   sync_material_panel();
 
   sync_session_actions();  // a new organ ended any recording of the old loop
+
+  authoring_after_new_organ();  // the authored document follows what runs
 
   // Camera on the whole organ.
   render::frame_camera(vtk_->renderer, view_->bounds(), Vec3(0.3, -1.0, 0.8), Vec3::UnitZ());
@@ -1171,6 +1188,7 @@ bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
     return true;
   }
   if (watched != viewport_) return QMainWindow::eventFilter(watched, event);
+  if (authoring_ && !in_replay() && author_tools_->handle(event)) return true;  // the authoring tools first
   switch (event->type()) {
     case QEvent::MouseButtonPress: return mouse_press(static_cast<QMouseEvent*>(event));
     case QEvent::MouseMove: return mouse_move(static_cast<QMouseEvent*>(event));
@@ -1236,8 +1254,8 @@ void MainWindow::rebuild_lesion_views() {
   lesion_views_.clear();
   if (const scenario::Resolved* sc = workbench_.scenario()) {
     for (const tissue::Lesion& l : sc->lesions) {
-      if (l.visibility != tissue::Visibility::Shown && !reveal_action_->isChecked()) continue;
       if (mode_ == WorkbenchMode::Exam && !reveal_action_->isChecked()) continue;  // none until Finish
+      if (l.visibility != tissue::Visibility::Shown && !reveal_action_->isChecked() && !authoring_) continue;
       lesion_views_.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
       lesion_views_.back()->add_to(vtk_->inclusions);
     }
@@ -1258,6 +1276,7 @@ void MainWindow::apply_frame_transform() {
   const Eigen::Matrix4d organ_to_world = field->organ_to_world(frame_time_);
   view_->set_transform(organ_to_world);
   for (auto& lv : lesion_views_) lv->set_transform(organ_to_world);
+  if (author_tools_) author_tools_->set_transform(organ_to_world);
 }
 
 // The stream entries the loop changed since the last frame (partial upload);
@@ -1380,7 +1399,7 @@ void MainWindow::build_session_ui() {
                              "loop) into a new session file of the sessions folder, with the trainee's name");
   stop_action_ = menu->addAction("&Stop recording", this, [this] { stop_recording(); });
   stop_action_->setObjectName("stopRecording");
-  stop_action_->setShortcut(QKeySequence("Ctrl+Shift+S"));
+  stop_action_->setShortcut(QKeySequence("Ctrl+Shift+E"));
   stop_action_->setToolTip("Stop the recording and finish its file (the browser lists it)");
   menu->addSeparator();
   QAction* replay = menu->addAction("Re&play a session file...", this, [this] {

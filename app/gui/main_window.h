@@ -15,10 +15,12 @@
 
 #include <QElapsedTimer>
 #include <QMainWindow>
+#include <QMessageBox>
 #include <QString>
 #include <QStringList>
 #include <QTimer>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <vector>
@@ -48,8 +50,11 @@ namespace palpa::app {
 
 class DiagnosticsPanel;
 class ExamPanel;
+class AuthoringPanel;
+class AuthoringTools;
 class ForcePlot;
 class ReplayPanel;
+class ScenarioDocument;
 class SessionBrowser;
 
 /// Call before creating the QApplication: VTK's surface format with
@@ -146,6 +151,35 @@ class MainWindow : public QMainWindow {
   void leave_replay();
   bool in_replay() const { return replay_view_ != nullptr; }
 
+  // Authoring (docs/USER_GUIDE_AUTHORING.md; main_window_authoring.cpp).
+  /// Authoring mode (the "Author scenario" action, objectName "authorMode"):
+  /// the authoring panel, the tools on the 3D view and the x-ray view (the
+  /// organ translucent, every lesion drawn, hidden ones included).
+  void set_authoring(bool on);
+  bool authoring() const { return authoring_; }
+  /// Whether the organ is drawn translucent (authoring's x-ray view).
+  bool xray() const;
+  ScenarioDocument* document() const { return document_; }
+  AuthoringTools* authoring_tools() const { return author_tools_; }
+  AuthoringPanel* authoring_panel() const { return author_panel_; }
+  /// File > New scenario: a scenario around the organ shown (its file and
+  /// unit; the base tissue from the presets), run at once. Asks first when
+  /// the document has unsaved changes. False (error shown) when it cannot.
+  bool new_scenario();
+  /// File > Save scenario / Save scenario as: atomically
+  /// (scenario::save_scenario). save_document() asks for a file when the
+  /// scenario has none. False (error shown) on failure or when cancelled.
+  bool save_document();
+  bool save_document_as(const QString& path);
+  /// Asks what to do with unsaved changes before `doing` ("closing the
+  /// window", "opening x.json"...): Save, Discard or Cancel. True when the
+  /// caller may go on (nothing to lose, saved, or discarded).
+  bool confirm_discard(const QString& doing);
+  /// Replaces the question (tests): gets the question's text, returns
+  /// QMessageBox::Save, Discard or Cancel.
+  using SavePrompt = std::function<QMessageBox::StandardButton(const QString& question)>;
+  void set_save_prompt(SavePrompt prompt) { save_prompt_ = std::move(prompt); }
+
   Workbench& workbench() { return workbench_; }
   QVTKOpenGLNativeWidget* viewport() const { return viewport_; }
   vtkRenderer* renderer() const;
@@ -220,6 +254,9 @@ class MainWindow : public QMainWindow {
  signals:
   void modeChanged(WorkbenchMode mode);
 
+ signals:
+  void authoringChanged(bool on);
+
  protected:
   bool eventFilter(QObject* watched, QEvent* event) override;
   void dragEnterEvent(QDragEnterEvent* event) override;
@@ -279,6 +316,14 @@ class MainWindow : public QMainWindow {
   bool mouse_move(QMouseEvent* e);
   bool mouse_release(QMouseEvent* e);
   bool wheel(QWheelEvent* e);
+  // Authoring (main_window_authoring.cpp).
+  void build_authoring_ui(QMenu* file, QAction* before, QMenu* edit);
+  vtkRenderer* inclusions_renderer() const;
+  void authoring_after_new_organ();
+  void apply_document(const scenario::Scenario& s);
+  void sync_authoring_view();
+  void update_document_title();
+  QPoint project_to_viewport(const Vec3& organ_point) const;
 
   Workbench workbench_;
   QVTKOpenGLNativeWidget* viewport_ = nullptr;
@@ -388,6 +433,18 @@ class MainWindow : public QMainWindow {
   std::uint32_t last_buttons_ = 0;          // the selected probe's device buttons at the last frame
   int unit_index_ = 0;                      // the unit the organ file was opened with
   QString organ_path_;                      // the organ's mesh file (empty: the default organ or a scenario's)
+  double figures_shown_at_ = -1;
+
+  // Authoring.
+  bool authoring_ = false;
+  ScenarioDocument* document_ = nullptr;
+  AuthoringTools* author_tools_ = nullptr;
+  AuthoringPanel* author_panel_ = nullptr;
+  QDockWidget* author_dock_ = nullptr;
+  QAction* author_action_ = nullptr;
+  SavePrompt save_prompt_;
+  QString organ_file_ = "default";  // the organ shown: its file ("default": the bundled one) and unit
+  QString organ_unit_ = "m";  // s: the loop's figures are shown twice a second (each change repaints the window)
 };
 
 }  // namespace palpa::app

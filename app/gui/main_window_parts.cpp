@@ -186,7 +186,7 @@ void MainWindow::build_window_parts() {
     const char* tip;
   } modes[] = {
       {WorkbenchMode::Explore, "&Explore", "Ctrl+1", "The free workbench: every readout, the material panel, lesions as the scenario shows them"},
-      {WorkbenchMode::Author, "&Author", "Ctrl+2", "Author a scenario (for now the same as Explore)"},
+      {WorkbenchMode::Author, "&Author", "Ctrl+2", "Author a scenario: place and move lesions, paint tissue, draw pulses, set the task (the Authoring panel)"},
       {WorkbenchMode::Exam, "E&xam", "Ctrl+3", "Examine the scenario as a trainee: lesions hidden, no readout that gives one away, a countdown, marks compared with the truth at Finish"},
   };
   for (const auto& m : modes) {
@@ -380,6 +380,7 @@ bool MainWindow::set_mode(WorkbenchMode mode) {
   mode_ = mode;
   if (old == WorkbenchMode::Exam) leave_exam();
   if (mode == WorkbenchMode::Exam) enter_exam();
+  if (author_action_) set_authoring(mode == WorkbenchMode::Author);  // the authoring panel, tools and x-ray view
   sync_mode_controls();
   statusBar()->showMessage(mode_name(mode) + " mode", 3000);
   emit modeChanged(mode);
