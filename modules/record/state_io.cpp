@@ -65,6 +65,21 @@ deform::MaterialArrays get_materials(Reader& r, std::size_t vertices) {
 // or padding byte is copied), its per-vertex arrays as vectors.
 constexpr std::size_t kMaxTissues = 65536;
 
+// A vector whose count is checked against its limit and the bytes left,
+// naming it: "SetTissue command: the field's pulse 0 weights end early (...)".
+template <class T>
+std::vector<T> get_array(Reader& r, std::size_t max_count, const std::string& what, const std::string& name) {
+  const auto n = r.get<std::uint64_t>();
+  if (n > max_count)
+    throw DecodeError(what + ": " + name + " has " + std::to_string(n) + " entries, at most " + std::to_string(max_count));
+  if (n * sizeof(T) > r.left())
+    throw DecodeError(what + ": " + name + " end early (" + std::to_string(n) + " entries, " +
+                      std::to_string(r.left()) + " bytes left)");
+  std::vector<T> v(n);
+  if (n) r.get_bytes(v.data(), n * sizeof(T));
+  return v;
+}
+
 void put_tissue_map(Writer& w, const deform::MaterialMap& m) {
   w.put_vector(m.tissues);
   w.put_vector(m.tissue_of);
@@ -82,11 +97,11 @@ std::shared_ptr<const deform::MaterialMap> get_tissue_map(Reader& r, std::size_t
   for (std::size_t k = 0; k < m->tissues.size(); ++k)
     if (static_cast<unsigned>(m->tissues[k].model) > 8)
       throw DecodeError(what + ": tissue " + std::to_string(k) + " of a tissue map has an unknown model kind");
-  m->tissue_of = r.get_vector<std::uint16_t>(kMaxVertices);
+  m->tissue_of = get_array<std::uint16_t>(r, kMaxVertices, what, "a tissue map's tissue indices");
   if (m->tissue_of.size() != vertices)
     throw DecodeError(what + ": a tissue map has " + std::to_string(m->tissue_of.size()) + " tissue indices, the mesh " +
                       std::to_string(vertices) + " vertices");
-  m->scale = r.get_vector<float>(kMaxVertices);
+  m->scale = get_array<float>(r, kMaxVertices, what, "a tissue map's scales");
   if (!m->scale.empty() && m->scale.size() != vertices)
     throw DecodeError(what + ": a tissue map has " + std::to_string(m->scale.size()) + " scales, the mesh " +
                       std::to_string(vertices) + " vertices");
@@ -170,13 +185,13 @@ std::shared_ptr<const tissue::TissueField> get_field(Reader& r, std::size_t n, c
   for (std::size_t p = 0; p < f->pulse_count; ++p) {
     f->pulses[p].rate_hz = r.get<double>();
     f->pulses[p].amplitude = r.get<double>();
-    f->pulse_weight[p] = r.get_vector<float>(kMaxVertices);
+    f->pulse_weight[p] = get_array<float>(r, kMaxVertices, what, "the field's pulse " + std::to_string(p) + " weights");
     if (f->pulse_weight[p].size() != n)
       throw DecodeError(what + ": the field's pulse " + std::to_string(p) + " has " +
                         std::to_string(f->pulse_weight[p].size()) + " weights, the mesh " + std::to_string(n) +
                         " vertices");
   }
-  f->pulse_vertices = r.get_vector<Index>(n);
+  f->pulse_vertices = get_array<Index>(r, n, what, "the field's pulse vertices");
   for (Index v : f->pulse_vertices)
     if (v >= n) throw DecodeError(what + ": the field's pulse vertex " + std::to_string(v) + " is out of range");
   tissue::Breathing& b = f->breathing;
@@ -207,7 +222,8 @@ std::shared_ptr<const tissue::TissueField> get_field(Reader& r, std::size_t n, c
     d.guarding.factor = r.get<double>();
     d.guarding.duration = r.get<double>();
     d.guarding.release = r.get<double>();
-    f->dynamic_weight[k] = r.get_vector<float>(kMaxVertices);
+    f->dynamic_weight[k] =
+        get_array<float>(r, kMaxVertices, what, "the field's dynamic region " + std::to_string(k) + " weights");
     if (f->dynamic_weight[k].size() != n)
       throw DecodeError(what + ": the field's dynamic region " + std::to_string(k) + " has " +
                         std::to_string(f->dynamic_weight[k].size()) + " weights, the mesh " + std::to_string(n) +
