@@ -11,6 +11,7 @@
 // same SetTissue commands.
 
 #include "haptics/loop.h"
+#include "haptics/loop_replay.h"
 #include "haptics/session.h"
 #include "mesh/generate.h"
 #include "tissue/field.h"
@@ -385,6 +386,59 @@ TEST(TissueEdit, TheThreadedLoopEqualsSessionStepWithSetTissueCommands) {
   restored.restore(snap);
   EXPECT_EQ(restored.field(), second_edit->field.get());
   EXPECT_EQ(test::vertex_differences(restored.surface().state().vertices, loop.surface().state().vertices), 0u);
+}
+
+TEST(TissueEdit, ATissueSetWhileTheLoopIsStoppedReachesBothReplicasAndReplaysExactly) {
+  const auto mesh = plane();
+  const auto materials = deform::MaterialArrays::uniform(mesh->vertex_count(), linear(kK));
+  const auto model = SessionModel::make(mesh, {}, config());
+  auto map = std::make_shared<deform::MaterialMap>();
+  map->tissues = {linear(2 * kK)};
+  map->tissue_of.assign(mesh->vertex_count(), 0);
+  test::ManualClock clock;
+  test::FakeDeviceState st;
+  st.clock = [&clock] { return clock.now_s(); };
+  st.z = -kDepth;
+  auto dev = test::make_fake_device(st);
+  LoopConfig c;
+  c.clock = &clock;
+  c.record_capacity = 1 << 14;
+  ProbeBinding b;
+  b.device = &dev;
+  b.safety = setup().safety;
+  HapticLoop loop(model, materials, c, {b});
+  LoopRecording rec;
+  loop.start();
+  loop.enable(0);
+  ASSERT_TRUE(test::run_ticks(loop, clock, 150));
+  loop.stop();
+  loop.set_tissue(tissue_of(field(*mesh, {stiff_lesion()}, {vessel()}), map));  // stopped: applied at once
+  EXPECT_EQ(loop.surface().material(0), linear(2 * kK));
+  clock.reset();
+  loop.start();
+  ASSERT_TRUE(test::run_ticks(loop, clock, 300));
+  loop.stop();
+  rec.drain(loop);
+  ASSERT_EQ(rec.ticks.size(), 450u);
+  ASSERT_EQ(rec.commands.size(), 2u);
+  EXPECT_TRUE(rec.commands[1].immediate);
+  // Live: the stiffer map and the lesion from the first tick after the restart.
+  const double a2 = kLesionR * kLesionR;
+  const double f = 2 * kK * kDepth * (1 + (kRatio - 1) * a2 / (a2 + kTip * kDepth));
+  EXPECT_NEAR(rec.ticks[449].force_device[0][2], f, 0.01 * f);
+
+  LoopReplay replay(model, materials, loop.setups());
+  std::size_t differ = 0;
+  std::uint64_t first = 0;
+  replay.run(rec, [&](const TickRecord& tr, std::span<const ProbeTickResult> r) {
+    const bool d = !test::same_bits(tr.force_device[0], r[0].force_device) || tr.flags[0] != r[0].flags;
+    if (d && differ++ == 0) first = tr.tick;
+  });
+  EXPECT_EQ(differ, 0u) << "first at tick " << first;
+  // The vessel moved the surface alike (its drives reached the replica the
+  // haptic thread read first and the other one).
+  EXPECT_EQ(test::vertex_differences(loop.surface().state().vertices, replay.surface().state().vertices), 0u);
+  EXPECT_GT(test::dented(loop.surface().state().vertices), 0u);
 }
 
 }  // namespace
