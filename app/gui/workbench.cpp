@@ -162,10 +162,16 @@ void Workbench::start_recording(const std::filesystem::path& file, const std::st
   if (scenario_) {
     const std::filesystem::path sc = std::filesystem::absolute(scenario_->scenario.file);
     info.scenario_file = sc.string();
-    std::ifstream in(sc, std::ios::binary);
-    std::ostringstream text;
-    text << in.rdbuf();
-    info.scenario_json = text.str();
+    if (scenario_edited_) {
+      // Edited since it was opened: the scenario as it runs now (its lesions
+      // are what an assessment of the recording grades against).
+      info.scenario_json = scenario::to_json_text(scenario_->scenario);
+    } else {
+      std::ifstream in(sc, std::ios::binary);
+      std::ostringstream text;
+      text << in.rdbuf();
+      info.scenario_json = text.str();
+    }
     info.force_limit = scenario_->scenario.task.force_limit;
   }
   const deform::MaterialArrays initial = materials();
@@ -346,10 +352,64 @@ void Workbench::set_scenario(scenario::Resolved resolved) {
   organ_ = kept->organ;
   scenario_ = std::move(kept);
   map_in_force_ = true;
+  scenario_edited_ = false;
   material_ = m;
   install(std::move(loop), next);
   epoch_ = monotonic_now();
   time_ = 0;
+}
+
+// An edit of the running scenario: resolved and checked first (strong
+// guarantee), then commands to the same loop; the dent, the probes, the
+// tick count and any recording go on.
+void Workbench::edit_scenario(scenario::Scenario edited) {
+  if (!scenario_) throw std::logic_error("cannot edit the scenario: no scenario is running");
+  const scenario::OrganRef& now = scenario_->scenario.organ;
+  if (edited.organ.path != now.path || edited.organ.unit != now.unit)
+    throw std::invalid_argument("cannot edit the scenario: its organ (" + edited.organ.path + ", " + edited.organ.unit +
+                                ") is not the running one (" + now.path + ", " + now.unit +
+                                "); open it as a new scenario");
+  scenario::Resolved r = scenario::resolve_on(edited, scenario_->organ);  // throws ScenarioError
+  const scenario::Scenario& sc = r.scenario;
+  const std::string file = sc.file.empty() ? std::string("scenario") : sc.file.string();
+  if (r.base >= sc.tissues.size() || r.base >= r.tissues.size())
+    throw scenario::ScenarioError(file, "/base_tissue", "base tissue index out of range");
+  haptics::CoreConfig config = scenario::core_config(r, kHapticRateHz, kDeformRateHz);
+  try {
+    config.validate();
+  } catch (const std::invalid_argument& e) {
+    throw scenario::ScenarioError(file, "/probe", e.what());
+  }
+  auto tissue = scenario::tissue_model(r);
+  try {
+    haptics::validate_tissue(*tissue, organ_.mesh->vertex_count());
+  } catch (const std::invalid_argument& e) {
+    throw scenario::ScenarioError(file, "/", e.what());
+  }
+  MaterialSettings m = material_;
+  m.law = MaterialLaw::Hertz;
+  m.tissue = sc.tissues[r.base];
+  m.tip_radius = sc.probe.tip_radius;
+  m.mass = tissue::kDefaultVertexMass;
+  m.shape = config.shape.kind;
+  m.radius = config.shape.radius;
+  m.friction = config.force.friction;
+  m.max_force = config.force.max_force;
+
+  // Everything is checked: the commands (SetTissue first, so the shape and
+  // force edits of the same moment apply with it).
+  if (loop_) {
+    last_ticket_ = loop_->set_tissue(tissue);
+    if (m.shape != material_.shape || m.radius != material_.radius) last_ticket_ = loop_->set_shape(config.shape);
+    if (m.friction != material_.friction || m.max_force != material_.max_force)
+      last_ticket_ = loop_->set_force(config.force);
+  }
+  scenario_ = std::make_unique<const scenario::Resolved>(std::move(r));
+  map_in_force_ = true;
+  scenario_edited_ = true;
+  material_ = m;
+  for (Probe& p : probes_)
+    if (p.host_fed && p.depth > max_depth()) set_depth(p.id, max_depth());
 }
 
 scenario::Resolved Workbench::resolve_scenario(const std::filesystem::path& file) {

@@ -132,6 +132,18 @@ class Workbench {
   /// (tissue, tip radius, shape, force clamp). Probes stay, mouse probes are
   /// unplaced. Strong guarantee: if building throws, nothing changes.
   void set_scenario(scenario::Resolved resolved);
+  /// Applies an edited scenario to the running loop (same organ file): re-resolved on the loaded organ, sent as one SetTissue
+  /// command (plus the probe shape / force clamp / tip radius changes as their existing commands if those changed); probes, dent,
+  /// tick count and recording go on. Strong guarantee: throws scenario::ScenarioError (nothing changed) for a scenario that does
+  /// not resolve. Without a scenario running: std::logic_error. A different organ path/unit: std::invalid_argument (use set_scenario).
+  ///
+  /// The tip radius (m) is part of the tissue (the Hertz materials of the
+  /// map and the lesion law of the field), so it travels in the SetTissue
+  /// command; the shape function (support radius, m) and the force clamp
+  /// (N) go as SetShape and SetForce. The material settings become the
+  /// edited base tissue's, the tissue map is in force again, and scenario()
+  /// returns the edited Resolved afterwards.
+  void edit_scenario(scenario::Scenario edited);
   /// load_scenario + resolve + set_scenario. Throws (nothing changed)
   /// scenario::ScenarioError, or std::runtime_error whose message starts
   /// with the file's path, for a file that does not read, validate, resolve
@@ -297,6 +309,7 @@ class Workbench {
   mesh::Organ organ_;
   std::unique_ptr<const scenario::Resolved> scenario_;  // null: a bare organ
   bool map_in_force_ = false;                          // the scenario's tissue map, not a uniform edit
+  bool scenario_edited_ = false;                       // edit_scenario changed it since it was opened
   MaterialSettings material_;
   std::vector<Probe> probes_;
   std::vector<std::shared_ptr<devices::Device>> retired_;  // removed, maybe still read by the loop

@@ -27,7 +27,7 @@ struct LoadedSession {
   std::shared_ptr<const haptics::SessionModel> model;
   deform::MaterialArrays initial;
   std::vector<haptics::CommandRecord> commands;
-  std::vector<std::shared_ptr<const deform::MaterialArrays>> kept;  ///< maps the commands point to
+  std::vector<std::shared_ptr<const deform::MaterialArrays>> kept;  ///< what the commands point to (SetMaterialMap maps, SetTissue tissues)
   std::vector<tissue::Lesion> lesions;  ///< the scenario's, placed (empty: none)
   std::string scenario_title;
   double tip_radius = 0.008;            ///< m (the scenario's probe; 8 mm without one)

@@ -179,6 +179,7 @@ void HapticLoop::init(deform::MaterialArrays materials, std::vector<ProbeBinding
   if (model_) {
     for (auto& r : replicas_) model_->prepare_surface(*r);
     field = model_->field.get();
+    surface_field_ = field;
     if (model_->tissue_map) {
       material_source_ = MaterialSource{};
       material_source_.uniform = false;
@@ -318,6 +319,10 @@ void HapticLoop::apply_now(const Queued& q, double t) {
   if (core_->state().pending.any()) {
     const DeformEdits edits = core_->take_pending_edits();
     for (auto& rep : replicas_) apply_deform_edits(*rep, edits);
+    if (edits.tissue) {
+      surface_tissue_ = edits.tissue;
+      surface_field_ = edits.tissue->field.get();
+    }
     const auto ranges = replicas_[current_.load()]->take_dirty_ranges();
     mailbox_->publish(replicas_[current_.load()]->stream(), ranges);
     replicas_[1 - current_.load()]->take_dirty_ranges();
@@ -438,6 +443,24 @@ CommandTicket HapticLoop::reset_surface() {
   return push(LoopCommand::of(LoopCommandKind::ResetSurface));
 }
 
+CommandTicket HapticLoop::set_tissue(std::shared_ptr<const TissueModel> tissue) {
+  if (!tissue) throw std::invalid_argument("loop: set_tissue without a tissue");
+  validate_tissue(*tissue, mesh_->vertex_count());
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetTissue);
+  c.tissue = tissue.get();
+  {
+    std::lock_guard<std::mutex> lock(command_mutex_);
+    kept_tissues_.push_back(tissue);
+  }
+  if (tissue->map) {
+    material_source_ = MaterialSource{};
+    material_source_.uniform = false;
+    material_source_.tissue_map = tissue->map;
+    material_source_.edited_tissue_map = true;
+  }
+  return push(c);
+}
+
 SessionState HapticLoop::snapshot() const {
   if (running_.load()) throw std::logic_error("loop: snapshot() needs the loop stopped");
   const deform::DeformableSurface& s = *replicas_[current_.load()];
@@ -449,6 +472,14 @@ SessionState HapticLoop::snapshot() const {
   out.generation = meta_[current_.load()].generation;
   out.model_time = meta_[current_.load()].time;
   out.materials = material_source_;
+  // Stopped: every command applied, its edits on both replicas.
+  out.tissue = owner_among(kept_tissues_, out.core.tissue);
+  out.surface_tissue = owner_among(kept_tissues_, surface_tissue_);
+  if (out.core.pending.material == 3) {
+    for (const auto& k : kept_tissues_)
+      if (k->map.get() == out.core.pending.tissue_map) out.pending_tissue_map = k->map;
+    if (!out.pending_tissue_map) out.pending_tissue_map = restored_pending_map_;
+  }
   return out;
 }
 
@@ -458,8 +489,16 @@ void HapticLoop::restore(const SessionState& st) {
     if (st.core.probes[i].active != used_[i])
       throw std::invalid_argument("loop: the snapshot's probe slot " + std::to_string(i) + " is " +
                                   (st.core.probes[i].active ? "used" : "free") + " but the loop's is not");
+  if (st.core.tissue != st.tissue.get() || (st.core.pending.tissue && st.core.pending.tissue != st.core.tissue))
+    throw std::invalid_argument("loop: the snapshot's tissue does not match its core state");
+  if (st.core.pending.material == 3 && st.core.pending.tissue_map != st.pending_tissue_map.get())
+    throw std::invalid_argument("loop: the snapshot's pending tissue map is not kept with it");
+  if (st.tissue) validate_tissue(*st.tissue, mesh_->vertex_count());
+  if (st.surface_tissue) validate_tissue(*st.surface_tissue, mesh_->vertex_count());
+  const tissue::TissueField* field = st.surface_tissue ? st.surface_tissue->field.get() : model_field();
   for (auto& r : replicas_) {
     apply_material_source(*r, st.materials);
+    set_field_drives(*r, field);
     r->restore(st.surface, st.contacts);
     r->take_dirty_ranges();
     r->clear_changes();  // level: the next step copies only what it changes
@@ -469,6 +508,11 @@ void HapticLoop::restore(const SessionState& st) {
   meta_[0] = meta_[1] = {st.generation, st.model_time};
   material_source_ = st.materials;
   if (st.materials.map) kept_maps_.push_back(st.materials.map);
+  surface_tissue_ = st.surface_tissue.get();
+  surface_field_ = field;
+  for (const auto& t : {st.tissue, st.surface_tissue})
+    if (t && std::find(kept_tissues_.begin(), kept_tissues_.end(), t) == kept_tissues_.end()) kept_tissues_.push_back(t);
+  restored_pending_map_ = st.pending_tissue_map;
   mailbox_->publish_all(replicas_[current_.load()]->stream());
 }
 
@@ -527,7 +571,11 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   const std::int64_t t0 = clock_->now_ns();
   const int cur = current_.load(std::memory_order_seq_cst);
   const int other = 1 - cur;
-  apply_deform_request(*replicas_[other], r, contact_scratch_, field_of());
+  apply_deform_request(*replicas_[other], r, contact_scratch_, surface_field_);
+  if (r.edits.tissue) {
+    surface_tissue_ = r.edits.tissue;
+    surface_field_ = r.edits.tissue->field.get();
+  }
   mailbox_->publish(replicas_[other]->stream(), replicas_[other]->take_dirty_ranges());
   meta_[other] = {r.generation, r.time};
   current_.store(other, std::memory_order_seq_cst);

@@ -201,6 +201,15 @@ class HapticLoop {
   CommandTicket set_materials(deform::MaterialArrays materials);
   /// Surface back to rest at the next deformation step; contacts start afresh.
   CommandTicket reset_surface();
+  /// A new tissue (kept alive by the loop) as a SetTissue command: the
+  /// ticks read its field from the tick that applies it (lesions, pulse
+  /// lifts, breathing, dynamic regions; guarding reactions start afresh);
+  /// the deformation step that tick asks for (dt = 0, at once) gives both
+  /// replicas its map (null: the materials in force stay) and its field's
+  /// pulse drives, and the steps from then on its pulse values. The dent
+  /// and the probes stay. Throws std::invalid_argument for a null tissue or
+  /// one that does not fit the mesh (validate_tissue); nothing changes then.
+  CommandTicket set_tissue(std::shared_ptr<const TissueModel> tissue);
   /// True once the haptic thread has applied the command (or at once when stopped).
   bool applied(CommandTicket t) const { return applied_.load(std::memory_order_acquire) >= t; }
   /// True once command t is applied and a deformation step made after it
@@ -273,7 +282,7 @@ class HapticLoop {
   std::shared_ptr<const collision::VertexTree> tree_;
   deform::SurfaceOptions options_;
   std::shared_ptr<const SessionModel> model_;  // when built from a model: its field and tissue map
-  const tissue::TissueField* field_of() const { return model_ ? model_->field.get() : nullptr; }
+  const tissue::TissueField* model_field() const { return model_ ? model_->field.get() : nullptr; }
   std::unique_ptr<deform::DeformableSurface> replicas_[2];
   std::unique_ptr<LoopCore> core_;
 
@@ -282,6 +291,12 @@ class HapticLoop {
   std::array<bool, kMaxProbes> used_{};
   std::vector<std::shared_ptr<const deform::MaterialArrays>> kept_maps_;
   MaterialSource material_source_;  // the material map of the latest edit (for snapshots)
+  std::vector<std::shared_ptr<const TissueModel>> kept_tissues_;  // set_tissue's and restored ones
+  std::shared_ptr<const deform::MaterialMap> restored_pending_map_;  // a restored state's pending tissue map
+  // Deformation side (the deformation thread, or the caller while stopped):
+  // the latest SetTissue the replicas got and the field their steps use.
+  const TissueModel* surface_tissue_ = nullptr;
+  const tissue::TissueField* surface_field_ = nullptr;
   // Haptic side: the device of each slot (null: free).
   std::array<devices::Device*, kMaxProbes> devices_{};
 

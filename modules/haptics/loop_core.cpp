@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -53,13 +54,100 @@ void to_contacts(const ContactSet& set, std::vector<deform::Contact>& out) {
   }
 }
 
+void validate_tissue(const TissueModel& t, std::size_t n) {
+  if (t.map) {
+    const deform::MaterialMap& m = *t.map;
+    if (m.tissues.empty()) throw std::invalid_argument("tissue: the map has no tissues");
+    if (m.tissues.size() > 65536)
+      throw std::invalid_argument("tissue: the map has " + std::to_string(m.tissues.size()) + " tissues, at most 65536");
+    for (std::size_t k = 0; k < m.tissues.size(); ++k)
+      deform::validate_material(m.tissues[k], "tissue: the map's tissue " + std::to_string(k));
+    if (m.tissue_of.size() != n)
+      throw std::invalid_argument("tissue: the map has " + std::to_string(m.tissue_of.size()) + " tissue indices for " +
+                                  std::to_string(n) + " vertices");
+    for (std::size_t i = 0; i < n; ++i)
+      if (m.tissue_of[i] >= m.tissues.size())
+        throw std::invalid_argument("tissue: the map's tissue of vertex " + std::to_string(i) + " is " +
+                                    std::to_string(m.tissue_of[i]) + ", but there are " +
+                                    std::to_string(m.tissues.size()) + " tissues");
+    if (!m.scale.empty() && m.scale.size() != n)
+      throw std::invalid_argument("tissue: the map has " + std::to_string(m.scale.size()) + " scales for " +
+                                  std::to_string(n) + " vertices");
+    for (std::size_t i = 0; i < m.scale.size(); ++i)
+      if (!(std::isfinite(m.scale[i]) && m.scale[i] > 0))
+        throw std::invalid_argument("tissue: the map's scale of vertex " + std::to_string(i) +
+                                    " must be positive and finite, got " + number(m.scale[i]));
+  }
+  if (!t.field) return;
+  const tissue::TissueField& f = *t.field;
+  auto finite = [](std::initializer_list<double> v) {
+    for (double x : v)
+      if (!std::isfinite(x)) return false;
+    return true;
+  };
+  for (std::size_t k = 0; k < f.lesion_count && k < tissue::kMaxLesions; ++k) {
+    const tissue::LesionData& l = f.lesions[k];
+    if (!l.centre.allFinite() || !l.inv_axes.allFinite() || !finite({l.size2, l.excess}))
+      throw std::invalid_argument("tissue: the field's lesion " + std::to_string(k) + " has a value that is not finite");
+  }
+  for (std::size_t p = 0; p < f.pulse_count && p < tissue::kMaxPulses; ++p)
+    if (!finite({f.pulses[p].rate_hz, f.pulses[p].amplitude}))
+      throw std::invalid_argument("tissue: the field's pulse " + std::to_string(p) + " has a value that is not finite");
+  const tissue::Breathing& b = f.breathing;
+  if (!finite({b.rate_bpm, b.scale}) || !b.translation.allFinite() || !b.axis.allFinite() || !b.centre.allFinite())
+    throw std::invalid_argument("tissue: the field's breathing has a value that is not finite");
+  for (std::size_t r = 0; r < f.dynamic_count && r < tissue::kMaxDynamicRegions; ++r) {
+    const auto& d = f.dynamic[r];
+    const auto& g = d.guarding;
+    bool ok = finite({g.threshold, g.factor, g.duration, g.release});
+    for (std::size_t k = 0; k < d.keyframe_count && k < tissue::kMaxKeyframes; ++k)
+      ok = ok && finite({d.keyframes[k].time, d.keyframes[k].scale, d.keyframes[k].ramp});
+    if (!ok)
+      throw std::invalid_argument("tissue: the field's dynamic region " + std::to_string(r) +
+                                  " has a value that is not finite");
+  }
+  if (!(std::isfinite(f.tip_radius) && f.tip_radius > 0))
+    throw std::invalid_argument("tissue: the field's tip radius must be positive and finite, got " +
+                                number(f.tip_radius) + " m");
+  if (f.lesion_count > tissue::kMaxLesions)
+    throw std::invalid_argument("tissue: the field has " + std::to_string(f.lesion_count) + " lesions, at most " +
+                                std::to_string(tissue::kMaxLesions));
+  if (f.pulse_count > tissue::kMaxPulses)
+    throw std::invalid_argument("tissue: the field has " + std::to_string(f.pulse_count) + " pulses, at most " +
+                                std::to_string(tissue::kMaxPulses));
+  if (f.dynamic_count > tissue::kMaxDynamicRegions)
+    throw std::invalid_argument("tissue: the field has " + std::to_string(f.dynamic_count) +
+                                " dynamic regions, at most " + std::to_string(tissue::kMaxDynamicRegions));
+  for (std::size_t p = 0; p < f.pulse_count; ++p)
+    if (f.pulse_weight[p].size() != n)
+      throw std::invalid_argument("tissue: the field's pulse " + std::to_string(p) + " has " +
+                                  std::to_string(f.pulse_weight[p].size()) + " weights for " + std::to_string(n) +
+                                  " vertices");
+  for (Index v : f.pulse_vertices)
+    if (v >= n) throw std::invalid_argument("tissue: the field's pulse vertex " + std::to_string(v) + " is out of range");
+  if (f.pulse_count == 0 && !f.pulse_vertices.empty())
+    throw std::invalid_argument("tissue: the field has pulse vertices but no pulse");
+  for (std::size_t r = 0; r < f.dynamic_count; ++r) {
+    if (f.dynamic_weight[r].size() != n)
+      throw std::invalid_argument("tissue: the field's dynamic region " + std::to_string(r) + " has " +
+                                  std::to_string(f.dynamic_weight[r].size()) + " weights for " + std::to_string(n) +
+                                  " vertices");
+    if (f.dynamic[r].keyframe_count > tissue::kMaxKeyframes)
+      throw std::invalid_argument("tissue: the field's dynamic region " + std::to_string(r) + " has " +
+                                  std::to_string(f.dynamic[r].keyframe_count) + " keyframes, at most " +
+                                  std::to_string(tissue::kMaxKeyframes));
+  }
+}
+
 void merge_requests(DeformRequest& into, const DeformRequest& later) {
   into.edits.reset = into.edits.reset || later.edits.reset;
   if (later.edits.material != 0) {
     into.edits.material = later.edits.material;
     into.edits.uniform = later.edits.uniform;
     into.edits.map = later.edits.map;
+    into.edits.tissue_map = later.edits.tissue_map;
   }
+  if (later.edits.tissue) into.edits.tissue = later.edits.tissue;
   into.generation = later.generation;
   into.tick = later.tick;
   into.time = later.time;
@@ -67,15 +155,31 @@ void merge_requests(DeformRequest& into, const DeformRequest& later) {
   into.contacts = later.contacts;
 }
 
+void set_field_drives(deform::DeformableSurface& surface, const tissue::TissueField* field) {
+  if (!field || field->pulse_count == 0) {
+    surface.set_drives({}, {});
+    surface.set_drive_values({});
+    return;
+  }
+  std::vector<Index> vertices = field->pulse_vertices;
+  std::vector<std::array<float, 4>> weights(vertices.size());
+  for (std::size_t j = 0; j < vertices.size(); ++j)
+    for (std::size_t p = 0; p < field->pulse_count; ++p) weights[j][p] = field->pulse_weight[p][vertices[j]];
+  surface.set_drives(std::move(vertices), std::move(weights));
+}
+
 void apply_deform_edits(deform::DeformableSurface& surface, const DeformEdits& e) {
   if (e.reset) surface.reset();
   if (e.material == 1) surface.set_uniform_material(e.uniform);
   if (e.material == 2 && e.map != nullptr) surface.set_materials(*e.map);
+  if (e.material == 3 && e.tissue_map != nullptr) surface.set_tissue_map(*e.tissue_map);
+  if (e.tissue) set_field_drives(surface, e.tissue->field.get());
 }
 
 void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& r,
                           std::vector<deform::Contact>& scratch, const tissue::TissueField* field) {
   apply_deform_edits(surface, r.edits);
+  field = field_after(r.edits, field);
   to_contacts(r.contacts, scratch);
   surface.set_contacts(scratch);
   if (field && field->pulse_count > 0) {
@@ -106,7 +210,7 @@ PreparedProbe LoopCore::prepare(ProbeSetup s, const CoreConfig& config) {
 
 LoopCore::LoopCore(const collision::VertexTree& tree, const mesh::SurfaceMesh& mesh, const CoreConfig& config,
                    std::vector<ProbeSetup> probes, const tissue::TissueField* field)
-    : tree_(tree), field_(field), config_(config), setups_(std::move(probes)) {
+    : tree_(tree), base_field_(field), field_(field), config_(config), setups_(std::move(probes)) {
   tissue_tick_.field = field_;
   config_.validate();
   if (setups_.empty()) throw std::invalid_argument("loop configuration: no probes");
@@ -157,11 +261,27 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
       state_.pending.material = 1;
       state_.pending.uniform = c.material;
       state_.pending.map = nullptr;
+      state_.pending.tissue_map = nullptr;
       return;
     case LoopCommandKind::SetMaterialMap:
       if (c.materials == nullptr) return;
       state_.pending.material = 2;
       state_.pending.map = c.materials;
+      state_.pending.tissue_map = nullptr;
+      return;
+    case LoopCommandKind::SetTissue:
+      // The ticks read the new field from this one on; the surface gets
+      // the map and the pulse drives with the next (edits-only) request.
+      if (c.tissue == nullptr) return;
+      state_.tissue = c.tissue;
+      state_.pending.tissue = c.tissue;
+      if (const deform::MaterialMap* map = c.tissue->map.get()) {
+        state_.pending.material = 3;
+        state_.pending.tissue_map = map;
+        state_.pending.map = nullptr;
+      }
+      state_.reactions = tissue::ReactionState{};  // the new field's regions have not reacted yet
+      use_field(c.tissue->field.get());
       return;
     case LoopCommandKind::ResetSurface:
       state_.pending.reset = true;

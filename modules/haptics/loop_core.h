@@ -19,6 +19,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -65,6 +66,24 @@ struct PreparedProbe {
   ClutchedMapping mapping;
 };
 
+/// A tissue for a running session: the per-vertex tissue map and the field (either may be null:
+/// null map = keep the materials in force; null field = no lesions/pulses/breathing/dynamic regions).
+/// Plain data read by the haptic thread (the field) and the deformation thread (map, pulse drives).
+struct TissueModel {
+  std::shared_ptr<const deform::MaterialMap> map;
+  std::shared_ptr<const tissue::TissueField> field;
+};
+
+/// Checks that `tissue` fits a mesh of `vertex_count` vertices: the map's
+/// tissues (valid materials, at most 65536), one tissue index per vertex
+/// (in range), scales (none or one per vertex, positive and finite); the
+/// field's counts (at most kMaxLesions lesions, kMaxPulses pulses,
+/// kMaxDynamicRegions regions, kMaxKeyframes keyframes each), one weight
+/// per vertex for every pulse and dynamic region, pulse vertices in range,
+/// a positive tip radius (m). Throws std::invalid_argument naming what is
+/// wrong, e.g. "tissue: the field's pulse 0 has 12 weights for 100 vertices".
+void validate_tissue(const TissueModel& tissue, std::size_t vertex_count);
+
 /// A command from another thread, applied at the start of a tick. Every
 /// change to a running session is one of these, so it is recorded with the
 /// tick it took effect at and a replay applies it at the same tick.
@@ -81,6 +100,10 @@ enum class LoopCommandKind : std::uint8_t {
   SetMaterial = 9, ///< every vertex gets `material` at the next deformation step
   SetMaterialMap = 10, ///< per-vertex `materials` (kept alive by the sender) at the next deformation step
   ResetSurface = 11,   ///< surface back to rest at the next deformation step; contacts released
+  /// `tissue` (kept alive by the sender) from this tick on: the ticks read its field at once (the
+  /// guarding reactions start afresh); its map (when not null) and its field's pulse drives reach
+  /// the surface at the next deformation step, which uses its field's pulse values from then on.
+  SetTissue = 12,
 };
 
 struct LoopCommand {
@@ -92,6 +115,7 @@ struct LoopCommand {
   ForceParams force;            ///< SetForce only
   deform::Material material;    ///< SetMaterial only
   const deform::MaterialArrays* materials = nullptr;  ///< SetMaterialMap only; must outlive the session
+  const TissueModel* tissue = nullptr;  ///< SetTissue only; must outlive the session (validate_tissue'd)
 
   /// A command of `kind` for slot `probe`, every payload at its default.
   static LoopCommand of(LoopCommandKind kind, std::uint32_t probe = 0) {
@@ -167,10 +191,14 @@ void to_contacts(const ContactSet& set, std::vector<deform::Contact>& out);
 /// Model edits that wait for the next deformation step.
 struct DeformEdits {
   bool reset = false;                 ///< surface to rest before the step
-  std::uint8_t material = 0;          ///< 0: none, 1: `uniform`, 2: `map`
+  std::uint8_t material = 0;          ///< 0: none, 1: `uniform`, 2: `map`, 3: `tissue_map`
   deform::Material uniform;
   const deform::MaterialArrays* map = nullptr;
-  bool any() const { return reset || material != 0; }
+  const deform::MaterialMap* tissue_map = nullptr;  ///< material 3: a SetTissue's map
+  /// A SetTissue's tissue: the surface gets its field's pulse drives (none
+  /// without pulses), and the steps from this one on its field's pulse values.
+  const TissueModel* tissue = nullptr;
+  bool any() const { return reset || material != 0 || tissue != nullptr; }
 };
 
 /// One deformation step, asked for by the tick whose contacts it uses. The
@@ -192,12 +220,25 @@ struct DeformRequest {
 /// integrate exactly over any step, so the surface keeps time).
 void merge_requests(DeformRequest& into, const DeformRequest& later);
 
-/// Applies model edits to a surface: reset first, then the material.
-/// Throws only what the surface's edits throw for bad materials.
+/// Gives `surface` the pulse drives of `field` (its pulse vertices and
+/// weights); none when `field` is null or has no pulse (then the drive
+/// values are zeroed too). Allocates; throws what set_drives throws.
+void set_field_drives(deform::DeformableSurface& surface, const tissue::TissueField* field);
+
+/// Applies model edits to a surface: reset first, then the material (or a
+/// tissue's map), then a tissue's pulse drives. Throws only what the
+/// surface's edits throw for bad materials.
 void apply_deform_edits(deform::DeformableSurface& surface, const DeformEdits& edits);
 
+/// The field the deformation steps use after `edits`: the field of the
+/// tissue they set (possibly null), else `current`.
+inline const tissue::TissueField* field_after(const DeformEdits& edits, const tissue::TissueField* current) {
+  return edits.tissue ? edits.tissue->field.get() : current;
+}
+
 /// Applies a request to a surface: edits, contacts, the pulse drives'
-/// values at the request's time (when `field` has pulses), step. `scratch` keeps
+/// values at the request's time (when the field in use has pulses: `field`,
+/// or the field of a tissue the request's edits set), step. `scratch` keeps
 /// its capacity between calls. Throws only what the surface's edits throw
 /// for bad materials (they were validated before they were queued).
 void apply_deform_request(deform::DeformableSurface& surface, const DeformRequest& request,
@@ -232,6 +273,9 @@ struct CoreState {
   std::uint64_t generations = 0;      ///< deformation steps requested so far
   DeformEdits pending;                ///< edits waiting for the next request
   tissue::ReactionState reactions;    ///< guarding reactions of the tissue field's dynamic regions
+  /// The tissue of the latest SetTissue, whose field the ticks read (null:
+  /// none yet, the field the core was built with).
+  const TissueModel* tissue = nullptr;
 };
 
 class LoopCore {
@@ -240,7 +284,8 @@ class LoopCore {
   /// for a bad configuration, too many probes or bad mappings/limits. The
   /// probes take slots 0 .. probes.size() - 1 with output disabled.
   /// `field` (lesions, pulses, breathing, dynamic regions; may be null)
-  /// must outlive the core too. With breathing the probes are brought into
+  /// must outlive the core too; a SetTissue command replaces it (field()
+  /// is the one in force). With breathing the probes are brought into
   /// the organ frame before the contact query (contact points and depths in
   /// results are in the organ frame; forces are taken as they are: the
   /// breathing stretch is small and not applied to them).
@@ -284,13 +329,23 @@ class LoopCore {
     return e;
   }
 
-  /// The mutable state (a snapshot), and its exact restore.
+  /// The mutable state (a snapshot), and its exact restore (the field in
+  /// force too: the state's tissue's, or the one the core was built with).
   const CoreState& state() const { return state_; }
-  void set_state(const CoreState& s) noexcept { state_ = s; }
+  void set_state(const CoreState& s) noexcept {
+    state_ = s;
+    use_field(state_.tissue ? state_.tissue->field.get() : base_field_);
+  }
 
  private:
+  void use_field(const tissue::TissueField* field) noexcept {
+    field_ = field;
+    tissue_tick_.field = field;
+  }
+
   const collision::VertexTree& tree_;
-  const tissue::TissueField* field_ = nullptr;
+  const tissue::TissueField* base_field_ = nullptr;  // the field the core was built with
+  const tissue::TissueField* field_ = nullptr;       // the field in force
   TissueTick tissue_tick_;
   CoreConfig config_;
   std::vector<ProbeSetup> setups_;

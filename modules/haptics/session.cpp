@@ -1,5 +1,6 @@
 #include "haptics/session.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -32,13 +33,7 @@ std::shared_ptr<const SessionModel> SessionModel::make(std::shared_ptr<const mes
 
 void SessionModel::prepare_surface(deform::DeformableSurface& surface) const {
   if (tissue_map) surface.set_tissue_map(*tissue_map);
-  if (field && field->pulse_count > 0) {
-    std::vector<Index> vertices = field->pulse_vertices;
-    std::vector<std::array<float, 4>> weights(vertices.size());
-    for (std::size_t j = 0; j < vertices.size(); ++j)
-      for (std::size_t p = 0; p < field->pulse_count; ++p) weights[j][p] = field->pulse_weight[p][vertices[j]];
-    surface.set_drives(std::move(vertices), std::move(weights));
-  }
+  if (field && field->pulse_count > 0) set_field_drives(surface, field.get());
 }
 
 MaterialSource material_source_of(const deform::MaterialArrays& m) {
@@ -79,6 +74,7 @@ Session::Session(std::shared_ptr<const SessionModel> model, deform::MaterialArra
   }
   core_ = std::make_unique<LoopCore>(*model_->tree, *model_->mesh, model_->config, std::move(probes),
                                      model_->field.get());
+  surface_field_ = model_->field.get();
   surface_->take_dirty_ranges();
 }
 
@@ -97,11 +93,32 @@ void Session::set_materials(deform::MaterialArrays materials, double t) {
   core_->apply(c, t);
 }
 
+void Session::set_tissue(std::shared_ptr<const TissueModel> tissue, double t) {
+  if (!tissue) throw std::invalid_argument("session: set_tissue without a tissue");
+  validate_tissue(*tissue, model_->mesh->vertex_count());
+  kept_tissues_.push_back(tissue);
+  LoopCommand c = LoopCommand::of(LoopCommandKind::SetTissue);
+  c.tissue = tissue.get();
+  core_->apply(c, t);
+}
+
 void Session::apply_edits_now() {
   if (!core_->state().pending.any()) return;
   const DeformEdits e = core_->take_pending_edits();
   apply_deform_edits(*surface_, e);
-  note_materials(e);
+  note_edits(e);
+}
+
+std::shared_ptr<const TissueModel> Session::tissue_owner(const TissueModel* t) const {
+  return owner_among(kept_tissues_, t);
+}
+
+// A tissue map's owner: the tissue that holds it, a restored map, or none.
+std::shared_ptr<const deform::MaterialMap> Session::map_owner(const deform::MaterialMap* m) const {
+  if (!m) return nullptr;
+  for (const auto& k : kept_tissues_)
+    if (k->map.get() == m) return k->map;
+  return owner_among(kept_tissue_maps_, m);
 }
 
 bool Session::tick(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
@@ -114,8 +131,18 @@ bool Session::tick(double t, std::span<const ProbeTickInput> inputs, std::span<P
   return due;
 }
 
-// The material in force, for snapshots.
-void Session::note_materials(const DeformEdits& e) {
+// The material and the tissue in force on the surface, for snapshots.
+void Session::note_edits(const DeformEdits& e) {
+  if (e.tissue) {
+    surface_tissue_ = e.tissue;
+    surface_field_ = e.tissue->field.get();
+  }
+  if (e.material == 3 && e.tissue_map != nullptr) {
+    materials_ = MaterialSource{};
+    materials_.uniform = false;
+    materials_.tissue_map = map_owner(e.tissue_map);
+    materials_.edited_tissue_map = true;
+  }
   if (e.material == 1) {
     materials_ = MaterialSource{};
     materials_.material = e.uniform;
@@ -129,8 +156,8 @@ void Session::note_materials(const DeformEdits& e) {
 }
 
 void Session::deform(const DeformRequest& r) {
-  apply_deform_request(*surface_, r, scratch_, model_->field.get());
-  note_materials(r.edits);
+  apply_deform_request(*surface_, r, scratch_, surface_field_);
+  note_edits(r.edits);
   generation_ = r.generation;
   model_time_ = r.time;
 }
@@ -151,19 +178,39 @@ SessionState Session::snapshot() const {
   s.generation = generation_;
   s.model_time = model_time_;
   s.materials = materials_;
+  s.tissue = tissue_owner(s.core.tissue);
+  s.surface_tissue = tissue_owner(surface_tissue_);
+  s.pending_tissue_map = map_owner(s.core.pending.material == 3 ? s.core.pending.tissue_map : nullptr);
   return s;
 }
 
 void Session::restore(const SessionState& s) {
-  // Materials first (they shape the fields the restore rebuilds).
+  if (s.core.tissue != s.tissue.get() || (s.core.pending.tissue && s.core.pending.tissue != s.core.tissue))
+    throw std::invalid_argument("session: the snapshot's tissue does not match its core state");
+  if (s.core.pending.material == 3 && s.core.pending.tissue_map != s.pending_tissue_map.get())
+    throw std::invalid_argument("session: the snapshot's pending tissue map is not kept with it");
+  if (s.surface_tissue) validate_tissue(*s.surface_tissue, model_->mesh->vertex_count());
+  if (s.tissue) validate_tissue(*s.tissue, model_->mesh->vertex_count());
+  // Materials and pulse drives first (they shape the fields the restore rebuilds).
   apply_material_source(*surface_, s.materials);
+  const tissue::TissueField* field = s.surface_tissue ? s.surface_tissue->field.get() : model_->field.get();
+  set_field_drives(*surface_, field);
   surface_->restore(s.surface, s.contacts);
   core_->set_state(s.core);
   tick_ = s.tick;
   generation_ = s.generation;
   model_time_ = s.model_time;
   materials_ = s.materials;
-  if (s.materials.map) kept_maps_.push_back(s.materials.map);
+  surface_tissue_ = s.surface_tissue.get();
+  surface_field_ = field;
+  auto keep = [](auto& kept, const auto& p) {
+    if (p && std::find(kept.begin(), kept.end(), p) == kept.end()) kept.push_back(p);
+  };
+  keep(kept_maps_, s.materials.map);
+  keep(kept_tissues_, s.tissue);
+  keep(kept_tissues_, s.surface_tissue);
+  keep(kept_tissue_maps_, s.pending_tissue_map);
+  keep(kept_tissue_maps_, s.materials.tissue_map);
 }
 
 }  // namespace palpa::haptics

@@ -58,6 +58,8 @@ struct MaterialSource {
   std::shared_ptr<const deform::MaterialArrays> map;    ///< otherwise
   const deform::MaterialArrays* map_ptr = nullptr;      ///< the map the commands named (== map.get() or external)
   std::shared_ptr<const deform::MaterialMap> tissue_map; ///< a tissue map (uniform false, map null)
+  /// tissue_map is a SetTissue's (false: the model's tissue map).
+  bool edited_tissue_map = false;
 };
 
 /// The source of `materials`: one material when every vertex has it, else
@@ -66,6 +68,17 @@ MaterialSource material_source_of(const deform::MaterialArrays& materials);
 /// Gives `surface` the materials of `source` (a map named by pointer only
 /// must still be alive).
 void apply_material_source(deform::DeformableSurface& surface, const MaterialSource& source);
+
+/// The pointer among `kept` that is `p`, else one that points to `p`
+/// without owning it (null for null): what a state holds of an object a
+/// command named, which its sender keeps alive.
+template <class T>
+std::shared_ptr<const T> owner_among(const std::vector<std::shared_ptr<const T>>& kept, const T* p) {
+  if (!p) return nullptr;
+  for (const auto& k : kept)
+    if (k.get() == p) return k;
+  return std::shared_ptr<const T>(std::shared_ptr<const T>(), p);
+}
 
 /// Everything that changes while a session runs: a copy is a snapshot.
 struct SessionState {
@@ -76,6 +89,14 @@ struct SessionState {
   std::uint64_t generation = 0;            ///< deformation steps made
   double model_time = 0;                   ///< s: the time of the tick that asked for the last step
   MaterialSource materials;
+  /// The tissue the core reads (core.tissue, also core.pending.tissue),
+  /// kept alive with the state; null when no SetTissue came (the model's field).
+  std::shared_ptr<const TissueModel> tissue;
+  /// The tissue whose pulse drives and field the surface has (the latest
+  /// SetTissue a deformation step applied); null: the model's field.
+  std::shared_ptr<const TissueModel> surface_tissue;
+  /// Keeps core.pending.tissue_map alive (a SetTissue's map not applied yet).
+  std::shared_ptr<const deform::MaterialMap> pending_tissue_map;
 };
 
 class Session {
@@ -98,8 +119,18 @@ class Session {
   /// Queues per-vertex materials (kept alive by the session) for the next
   /// deformation step. Throws std::invalid_argument as MaterialArrays::validate.
   void set_materials(deform::MaterialArrays materials, double t);
+  /// Queues a new tissue (kept alive by the session) as a SetTissue command:
+  /// the ticks from the next one on read its field, the next deformation
+  /// step gives the surface its map (null: the materials in force stay)
+  /// and pulse drives. t: s. Throws std::invalid_argument for a null tissue
+  /// or one that does not fit the mesh (validate_tissue); nothing changes then.
+  void set_tissue(std::shared_ptr<const TissueModel> tissue, double t);
+  /// The field the ticks read now (the model's until a SetTissue), and the
+  /// one the deformation steps use (they differ until the step after a SetTissue).
+  const tissue::TissueField* field() const { return core_->field(); }
+  const tissue::TissueField* surface_field() const { return surface_field_; }
   /// Applies the edits waiting for the next deformation step (reset,
-  /// materials) to the surface now, with no step, as a stopped HapticLoop
+  /// materials, tissue) to the surface now, with no step, as a stopped HapticLoop
   /// does with commands it is given (CommandRecord::immediate).
   void apply_edits_now();
 
@@ -133,7 +164,9 @@ class Session {
   void restore(const SessionState& s);
 
  private:
-  void note_materials(const DeformEdits& e);
+  void note_edits(const DeformEdits& e);
+  std::shared_ptr<const TissueModel> tissue_owner(const TissueModel* t) const;
+  std::shared_ptr<const deform::MaterialMap> map_owner(const deform::MaterialMap* m) const;
 
   std::shared_ptr<const SessionModel> model_;
   std::unique_ptr<deform::DeformableSurface> surface_;
@@ -144,6 +177,10 @@ class Session {
   double model_time_ = 0;
   MaterialSource materials_;
   std::vector<std::shared_ptr<const deform::MaterialArrays>> kept_maps_;  // maps queued by set_materials
+  std::vector<std::shared_ptr<const TissueModel>> kept_tissues_;          // set_tissue's and restored ones
+  std::vector<std::shared_ptr<const deform::MaterialMap>> kept_tissue_maps_;  // restored pending maps
+  const TissueModel* surface_tissue_ = nullptr;       // the latest SetTissue the surface got (null: none)
+  const tissue::TissueField* surface_field_ = nullptr;  // the field the deformation steps use
 };
 
 }  // namespace palpa::haptics

@@ -107,6 +107,8 @@ class Reader {
     return s;
   }
   bool done() const { return at_ == b_.size(); }
+  /// Bytes not read yet.
+  std::size_t left() const { return b_.size() - at_; }
 
  private:
   std::span<const std::uint8_t> b_;

@@ -86,7 +86,7 @@ class SessionFile {
   deform::MaterialArrays initial_materials() const;
   /// Ticks [from, to) that the file holds (clipped to what is there).
   TickSpan ticks(std::uint64_t from = 0, std::uint64_t to = ~std::uint64_t{0}) const;
-  /// Every command in order; SetMaterialMap maps are kept in `keep`.
+  /// Every command in order; SetMaterialMap maps and SetTissue tissues are kept in `keep`.
   /// Throws RecordError when the layout differs.
   std::vector<haptics::CommandRecord> commands(std::vector<std::shared_ptr<const deform::MaterialArrays>>& keep) const;
   /// Deformation steps asked for by ticks [from, to): generation, asking

@@ -7,7 +7,8 @@
 // mapping and limits, Contact, VertexState, Material) are written byte for
 // byte, the vectors as a count and their elements, the pointers replaced by
 // what they point to (a material map inline, the model's tissue map by a
-// flag), and the whole deflated. Byte-for-byte structs tie a file to the
+// flag, a SetTissue's tissue map and field inline, field by field), and the
+// whole deflated. Byte-for-byte structs tie a file to the
 // layout of the build that wrote it: layout_tag() names that layout, the
 // session file stores it, and a reader of another layout refuses the
 // snapshots and commands with a message that says so (the ticks, events and
@@ -39,7 +40,8 @@ struct DecodedState {
 /// `s` as bytes (deflated).
 std::vector<std::uint8_t> encode_state(const haptics::SessionState& s);
 /// The state back; `model` gives the tissue map a state that used the
-/// model's refers to. Throws DecodeError (bad bytes, a tissue map the
+/// model's refers to. The SetTissue tissues and maps it names are owned by
+/// the decoded state (SessionState::tissue, surface_tissue, pending_tissue_map). Throws DecodeError (bad bytes, a tissue map the
 /// model lacks, a vertex count that is not the model's).
 DecodedState decode_state(std::span<const std::uint8_t> blob, const haptics::SessionModel& model);
 
@@ -48,8 +50,12 @@ DecodedState decode_state(std::span<const std::uint8_t> blob, const haptics::Ses
 std::vector<std::uint8_t> encode_materials(const deform::MaterialArrays& m);
 deform::MaterialArrays decode_materials(std::span<const std::uint8_t> blob, std::size_t vertices);
 
-/// A command as bytes (a SetMaterialMap's map inline), and back: the map
-/// of a SetMaterialMap is put in `keep` and the command points to it.
+/// A command as bytes (a SetMaterialMap's map, a SetTissue's tissue inline),
+/// and back: the map of a SetMaterialMap is put in `keep` and the command
+/// points to it; the tissue of a SetTissue is kept there too (by a pointer
+/// that owns it and points to no map). Throws DecodeError naming what is
+/// wrong (a count over its limit, an array that does not fit the mesh, a
+/// tissue validate_tissue refuses, bytes missing).
 std::vector<std::uint8_t> encode_command(const haptics::LoopCommand& c);
 haptics::LoopCommand decode_command(std::span<const std::uint8_t> blob, std::size_t vertices,
                                     std::vector<std::shared_ptr<const deform::MaterialArrays>>& keep);

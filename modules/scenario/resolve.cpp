@@ -95,15 +95,22 @@ std::vector<tissue::Lesion> place_lesions(const Scenario& s, const mesh::Surface
 }
 
 Resolved resolve(const Scenario& s) {
+  mesh::Organ organ;
+  if (s.organ.path == "default" || s.organ.path.empty()) {
+    organ = mesh::load_default_organ();
+  } else {
+    organ = mesh::load_organ(s.organ.resolved.empty() ? std::filesystem::path(s.organ.path) : s.organ.resolved,
+                             mesh::parse_mesh_unit(s.organ.unit));
+  }
+  return resolve_on(s, std::move(organ));
+}
+
+Resolved resolve_on(const Scenario& s, mesh::Organ organ) {
+  const std::string file = file_of(s);
+  if (!organ.mesh || organ.mesh->vertex_count() == 0) throw ScenarioError(file, "/organ", "no organ mesh to resolve on");
   Resolved r;
   r.scenario = s;
-  const std::string file = file_of(s);
-  if (s.organ.path == "default" || s.organ.path.empty()) {
-    r.organ = mesh::load_default_organ();
-  } else {
-    r.organ = mesh::load_organ(s.organ.resolved.empty() ? std::filesystem::path(s.organ.path) : s.organ.resolved,
-                               mesh::parse_mesh_unit(s.organ.unit));
-  }
+  r.organ = std::move(organ);
   const mesh::SurfaceMesh& m = *r.organ.mesh;
 
   // Tissues onto the Hertz model for this probe.
@@ -159,6 +166,13 @@ haptics::CoreConfig core_config(const Resolved& r, double rate_hz, double deform
   // The model never asks for more than the task's limit allows a device to show (x2 headroom).
   c.force.max_force = std::max(10.0, 2.0 * r.scenario.task.force_limit);
   return c;
+}
+
+std::shared_ptr<const haptics::TissueModel> tissue_model(const Resolved& r) {
+  auto t = std::make_shared<haptics::TissueModel>();
+  t->map = r.materials;
+  t->field = r.field;
+  return t;
 }
 
 std::shared_ptr<const haptics::SessionModel> session_model(const Resolved& r, const haptics::CoreConfig& config,

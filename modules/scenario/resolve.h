@@ -30,6 +30,19 @@ struct Resolved {
 /// lesion region with no vertices), or mesh::MeshError for the organ file.
 Resolved resolve(const Scenario& s);
 
+/// Resolves `s` on an organ already loaded (its organ reference is not
+/// read again: an edited scenario of a running session, whose organ path
+/// and unit are the loaded organ's): the same tissues, tissue map, lesions
+/// and field resolve() makes, with the same errors (ScenarioError naming
+/// the file and the JSON pointer); a null or empty organ mesh is refused
+/// ("/organ").
+Resolved resolve_on(const Scenario& s, mesh::Organ organ);
+
+/// The tissue of a resolved scenario for a running session
+/// (haptics::HapticLoop::set_tissue): its per-vertex tissue map and its
+/// field (lesions, pulses, breathing, dynamic regions), shared with `r`.
+std::shared_ptr<const haptics::TissueModel> tissue_model(const Resolved& r);
+
 /// The lesions of `s` placed on `organ` (surface-point lesions below the
 /// vertex nearest their point, random lesions from the seed: the same
 /// lesions on every machine). `region_weight` gives the weights of a named

@@ -11,6 +11,7 @@
 // so the tests wait for conditions with a timeout (never for wall-time figures).
 
 #include "app/gui/workbench.h"
+#include "app/replay/session_job.h"
 
 #include "common/test_support.h"
 #include "mesh/generate.h"
@@ -419,6 +420,162 @@ TEST(WorkbenchScenario, AMouseProbeOnABreathingOrganIsFedTipsThatMoveWithThePhas
   EXPECT_GT(hi_loop - lo_loop, 0.8 * expected) << "the loop did not see the probe move with the organ";
   // Carried with the organ, the pressed probe stays in contact.
   EXPECT_GT(in_contact, samples / 2);
+}
+
+// The scenario's vertex whose normal is most nearly +z (the top of the organ).
+Index top_vertex(const mesh::SurfaceMesh& mesh) {
+  Index top = 0;
+  for (Index i = 0; i < mesh.vertex_count(); ++i)
+    if (mesh.normals[i].z() > mesh.normals[top].z()) top = i;
+  return top;
+}
+
+TEST(WorkbenchScenario, AnEditAddsALesionToTheRunningLoopAndTheProbeFeelsIt) {
+  Workbench wb;
+  const int id = wb.add_probe();
+  wb.open_scenario(shipped("breast_two_nodules.json"));
+  const haptics::HapticLoop* loop = wb.loop();
+  const auto& mesh = *wb.organ().mesh;
+  const Index top = top_vertex(mesh);
+  wb.place(id, mesh.positions[top], mesh.normals[top].normalized(), 0.004);
+  const Probe& p = *wb.probe(id);
+  // The held probe's force, once it has settled (many ticks after contact).
+  ASSERT_TRUE(wait_for(wb, [&] { return p.output.in_contact; }));
+  std::uint64_t from = wb.loop()->ticks();
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.loop()->ticks() > from + 500; }));
+  const double before = p.output.force.norm();
+  ASSERT_GT(before, 0.01);
+  const std::size_t lesions = wb.scenario()->lesions.size();
+
+  // A stiff lesion under the probe: the tip (4 mm deep) is inside it.
+  scenario::Scenario edited = wb.scenario()->scenario;
+  scenario::LesionSpec spec;
+  spec.lesion.name = "added";
+  spec.lesion.semi_axes = Vec3::Constant(0.006);
+  spec.lesion.modulus_ratio = 6;
+  spec.from_surface = true;
+  spec.surface_point = mesh.positions[top];
+  spec.depth = 0.008;
+  edited.lesions.push_back(spec);
+  from = wb.loop()->ticks();
+  wb.edit_scenario(edited);
+  EXPECT_EQ(wb.loop(), loop) << "an edit, not a new loop";
+  ASSERT_EQ(wb.scenario()->lesions.size(), lesions + 1);
+  EXPECT_EQ(wb.scenario()->lesions.back().name, "added");
+  EXPECT_EQ(wb.scenario()->scenario, edited);
+  EXPECT_EQ(wb.field()->lesion_count, lesions + 1);
+  EXPECT_TRUE(wb.tissue_map_in_force());
+  EXPECT_TRUE(wb.probe(id)->placed);
+  // The loop goes on and the probe feels the lesion: contrast
+  // (rho - 1) a^2 / (a^2 + R d) = 5 * 36 / 68, about 2.6 times the tissue's force more.
+  EXPECT_TRUE(wait_for(wb, [&] { return wb.settled() && p.output.force.norm() > 1.8 * before; }))
+      << "before " << before << " N, now " << p.output.force.norm() << " N";
+  EXPECT_GT(wb.loop()->ticks(), from);
+  EXPECT_TRUE(wb.loop()->running());
+
+  // A bad edit (a lesion of radius 0) is refused and changes nothing.
+  const scenario::Resolved* sc = wb.scenario();
+  const auto field = wb.field();
+  scenario::Scenario bad = edited;
+  bad.lesions.back().lesion.semi_axes = Vec3(0.006, 0, 0.006);
+  EXPECT_THROW(wb.edit_scenario(bad), scenario::ScenarioError);
+  EXPECT_EQ(wb.scenario(), sc);
+  EXPECT_EQ(wb.field(), field);
+  EXPECT_EQ(wb.loop(), loop);
+  EXPECT_TRUE(wb.settled());
+  // Another organ is a new scenario, not an edit.
+  scenario::Scenario other = edited;
+  other.organ.path = "default";
+  EXPECT_THROW(wb.edit_scenario(other), std::invalid_argument);
+  EXPECT_EQ(wb.scenario(), sc);
+  // Removing the lesion again: the force returns to what it was.
+  scenario::Scenario removed = wb.scenario()->scenario;
+  removed.lesions.pop_back();
+  wb.edit_scenario(removed);
+  EXPECT_EQ(wb.scenario()->lesions.size(), lesions);
+  EXPECT_TRUE(wait_for(wb, [&] { return wb.settled() && std::abs(p.output.force.norm() - before) < 0.1 * before; }))
+      << "before " << before << " N, now " << p.output.force.norm() << " N";
+  EXPECT_EQ(wb.loop(), loop);
+}
+
+TEST(WorkbenchScenario, ARecordingGoesOnThroughAnEditAndReplaysIt) {
+  const auto dir = palpa::test::temp_dir("workbench_edit_recording");
+  const auto file = dir / "edited.palpa";
+  std::filesystem::remove(file);
+  Workbench wb;
+  const int id = wb.add_probe();
+  wb.open_scenario(shipped("breast_two_nodules.json"));
+  const auto& mesh = *wb.organ().mesh;
+  const Index top = top_vertex(mesh);
+  wb.place(id, mesh.positions[top], mesh.normals[top].normalized(), 0.004);
+  const Probe& p = *wb.probe(id);
+  ASSERT_TRUE(wait_for(wb, [&] { return p.output.in_contact; }));
+  wb.start_recording(file, "editor");
+  std::uint64_t from = wb.loop()->ticks();
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.loop()->ticks() > from + 300; }));
+  const double before = p.output.force.norm();
+  scenario::Scenario edited = wb.scenario()->scenario;
+  scenario::LesionSpec spec;
+  spec.lesion.semi_axes = Vec3::Constant(0.006);
+  spec.lesion.modulus_ratio = 6;
+  spec.from_surface = true;
+  spec.surface_point = mesh.positions[top];
+  spec.depth = 0.008;
+  edited.lesions.push_back(spec);
+  wb.edit_scenario(edited);
+  EXPECT_TRUE(wb.recording()) << "the recording goes on";
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.settled() && p.output.force.norm() > 1.8 * before; }));
+  from = wb.loop()->ticks();
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.loop()->ticks() > from + 100; }));
+  wb.stop_recording();
+
+  // The file holds the SetTissue command and replays it: the probe's force
+  // (re-simulated from the file alone) rises at that tick.
+  const app::LoadedSession s = app::load_session(file.string());
+  std::uint64_t edit_tick = 0;
+  for (const auto& c : s.commands)
+    if (c.command.kind == haptics::LoopCommandKind::SetTissue) edit_tick = c.tick;
+  ASSERT_GT(edit_tick, s.first_tick) << "a SetTissue command in the recording";
+  double replayed_before = 0, replayed_after = 0;
+  app::ForceCheck check;
+  app::replay_session(s, 0, ~std::uint64_t{0},
+                      [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r, const auto&) {
+                        if (t.tick + 1 == edit_tick) replayed_before = r[p.slot].normal_reaction;
+                        if (t.tick == edit_tick + 50) replayed_after = r[p.slot].normal_reaction;
+                      },
+                      check);
+  EXPECT_EQ(check.ticks, s.file.header().ticks);
+  EXPECT_TRUE(check.identical) << app::describe(check);
+  EXPECT_GT(replayed_before, 0.01);
+  EXPECT_GT(replayed_after, 1.8 * replayed_before);
+
+  // A recording started after the edit names the scenario as it runs (its
+  // lesions are what an assessment grades) and starts from the tissue in force.
+  const auto later = dir / "after_edit.palpa";
+  std::filesystem::remove(later);
+  wb.start_recording(later, "editor");
+  from = wb.loop()->ticks();
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.loop()->ticks() > from + 200; }));
+  wb.stop_recording();
+  const app::LoadedSession t = app::load_session(later.string());
+  EXPECT_EQ(t.lesions.size(), wb.scenario()->lesions.size());
+  EXPECT_EQ(t.model->field->lesion_count, wb.scenario()->lesions.size());
+  double replayed = 0;
+  app::ForceCheck again;
+  app::replay_session(t, 0, ~std::uint64_t{0},
+                      [&](const haptics::TickRecord&, std::span<const haptics::ProbeTickResult> r, const auto&) {
+                        replayed = r[p.slot].normal_reaction;
+                      },
+                      again);
+  EXPECT_TRUE(again.identical) << app::describe(again);
+  EXPECT_GT(replayed, 1.8 * replayed_before) << "the lesion is felt in the replay";
+}
+
+TEST(WorkbenchScenario, EditingWithoutAScenarioIsALogicError) {
+  Workbench wb;
+  EXPECT_THROW(wb.edit_scenario(scenario::Scenario{}), std::logic_error);
+  wb.set_organ(sphere_organ());
+  EXPECT_THROW(wb.edit_scenario(scenario::Scenario{}), std::logic_error);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // One haptic tick against closed forms: a linear material on a sphere with
 // radial normals gives F = k depth along the outward normal.
 
+#include "haptics/loop_core.h"
 #include "haptics/probe_tick.h"
 #include "common/test_support.h"
 #include "mesh/generate.h"
@@ -351,6 +352,56 @@ TEST(HapticTick, DoesNotAllocate) {
   EXPECT_EQ(g_allocations.load() - before_deep, 0);
   EXPECT_GT(proxy_ticks, 50);
   EXPECT_FALSE(deep_out.in_contact);
+}
+
+TEST(HapticTick, ASetTissueCommandAndTheTicksAfterItDoNotAllocate) {
+  // The haptic thread's side of SetTissue: LoopCore::apply swaps the field
+  // at a tick boundary and the ticks read the new one (lesions, a pulse, a
+  // dynamic region with guarding, breathing), with no heap allocation.
+  const SphereScene scene(linear(400), 4000);
+  tissue::Lesion l;
+  l.centre = Vec3(0, 0, kRadius - 0.006);
+  l.semi_axes = Vec3::Constant(0.004);
+  tissue::Pulse p;
+  p.path = {Vec3(-0.06, 0, kRadius), Vec3(0.06, 0, kRadius)};
+  p.radius = 0.01;
+  tissue::Breathing b;
+  b.enabled = true;
+  tissue::DynamicRegion d;
+  d.region = "all";
+  d.keyframes = {{0.0, 1.2, 0.1}};
+  d.guarding.enabled = true;
+  d.guarding.threshold = 0.1;
+  auto first = std::make_shared<TissueModel>();
+  first->field = std::make_shared<tissue::TissueField>(
+      tissue::make_field(*scene.mesh, 0.008, {l}, {p}, b, {d}, {std::vector<float>(scene.mesh->vertex_count(), 1.0f)}));
+  auto second = std::make_shared<TissueModel>();  // no field at all
+  validate_tissue(*first, scene.mesh->vertex_count());
+  ProbeSetup setup;
+  setup.name = "probe";
+  setup.spec.position_dof = 3;
+  LoopCore core(*scene.tree, *scene.mesh, CoreConfig{}, {setup});
+  std::array<ProbeTickInput, 1> in{};
+  std::array<ProbeTickResult, 1> out{};
+  ContactSet contacts;
+  LoopCommand set = LoopCommand::of(LoopCommandKind::SetTissue);
+  double felt_with = 0, felt_without = 0;
+  const long before = g_allocations.load();
+  for (std::uint64_t i = 0; i < 300; ++i) {
+    const double t = 1.0 + static_cast<double>(i) * 1e-3;
+    if (i == 100 || i == 200) {
+      set.tissue = i == 100 ? first.get() : second.get();
+      core.apply(set, t);
+    }
+    in[0].sample = position_sample(Vec3(0, 0, kRadius - 0.002), i + 1, t);
+    core.tick(i, t, *scene.surface, t, in, out, contacts);
+    if (i == 199) felt_with = out[0].normal_reaction;
+    if (i == 299) felt_without = out[0].normal_reaction;
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(core.field(), nullptr);
+  EXPECT_GT(felt_with, 1.2 * felt_without) << "the first tissue's lesion and keyframe were felt";
+  EXPECT_GT(felt_without, 0.0);
 }
 
 TEST(HapticTick, NonFiniteProbeGivesNoForce) {

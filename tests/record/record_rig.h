@@ -1,14 +1,17 @@
 #pragma once
 // A scripted session on a flat patch for the record tests: two probes
 // (one sliding and pressing, one pressing still), commands at fixed ticks
-// (enable, clutch, material, shape, a material map), every input a pure
-// function of the tick so a test knows what any tick must hold.
+// (enable, clutch, material, shape, a material map, two new tissues: a
+// lesion under the still probe with a vessel and a tissue map, then only
+// another vessel), every input a pure function of the tick so a test knows
+// what any tick must hold.
 
 #include "haptics/loop_replay.h"
 #include "haptics/session.h"
 #include "mesh/generate.h"
 #include "record/recorder.h"
 #include "record/session_file.h"
+#include "tissue/field.h"
 
 #include <cmath>
 #include <filesystem>
@@ -69,6 +72,9 @@ struct Rig {
   std::shared_ptr<const haptics::SessionModel> model;
   std::vector<haptics::ProbeSetup> setups;
   deform::MaterialArrays initial;
+  /// The tissues the script sets at kLesionTick and kVesselTick (SetTissue).
+  std::shared_ptr<const haptics::TissueModel> lesion_tissue, vessel_tissue;
+  static constexpr std::uint64_t kLesionTick = 1000, kVesselTick = 1100;
 
   Rig() {
     auto mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(41, 41, 1e-3));
@@ -90,6 +96,33 @@ struct Rig {
       setups.push_back(s);
     }
     initial = deform::MaterialArrays::uniform(mesh->vertex_count(), material(400));
+
+    // A stiff lesion under the still probe, a vessel along y at x = 10 mm,
+    // and a map: twice as stiff where y > 0.
+    tissue::Lesion l;
+    l.name = "lump";
+    l.centre = Vec3(-0.015, -0.015, -0.004);
+    l.semi_axes = Vec3::Constant(0.003);
+    l.modulus_ratio = 5;
+    tissue::Pulse p;
+    p.name = "vessel";
+    p.path = {Vec3(0.01, -0.02, 0), Vec3(0.01, 0.02, 0)};
+    p.radius = 0.004;
+    p.amplitude = 0.0008;
+    auto a = std::make_shared<haptics::TissueModel>();
+    a->field = std::make_shared<tissue::TissueField>(tissue::make_field(*mesh, 0.008, {l}, {p}, {}, {}, {}));
+    auto map = std::make_shared<deform::MaterialMap>();
+    map->tissues = {material(400), material(800)};
+    for (const Vec3& x : mesh->positions) map->tissue_of.push_back(x.y() > 0 ? 1 : 0);
+    map->scale.assign(mesh->vertex_count(), 1.0f);
+    map->scale[0] = 1.5f;
+    a->map = map;
+    lesion_tissue = a;
+    p.rate_bpm = 100;
+    p.path = {Vec3(-0.005, -0.02, 0), Vec3(-0.005, 0.02, 0)};
+    auto b = std::make_shared<haptics::TissueModel>();
+    b->field = std::make_shared<tissue::TissueField>(tissue::make_field(*mesh, 0.008, {}, {p}, {}, {}, {}));
+    vessel_tissue = b;
   }
 
   std::unique_ptr<haptics::Session> session() const {
@@ -119,6 +152,11 @@ struct Rig {
     if (tick == 900) {
       auto c = haptics::LoopCommand::of(K::SetMaterialMap);
       c.materials = &map;
+      record_apply(r, s, c, t);
+    }
+    if (tick == kLesionTick || tick == kVesselTick) {
+      auto c = haptics::LoopCommand::of(K::SetTissue);
+      c.tissue = tick == kLesionTick ? lesion_tissue.get() : vessel_tissue.get();
       record_apply(r, s, c, t);
     }
   }

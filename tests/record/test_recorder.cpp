@@ -4,12 +4,15 @@
 // each snapshot; dropped records counted when the writer cannot keep up.
 
 #include "record_rig.h"
+#include "record/internal_codec.h"
+#include "record/state_io.h"
 #include "tissue/field.h"
 
 #include <gtest/gtest.h>
 
 #include <cstring>
 #include <fstream>
+#include <functional>
 
 namespace palpa::record {
 namespace {
@@ -104,19 +107,36 @@ TEST_F(Recorded, CommandsDeformsAndSnapshots) {
   const auto f = SessionFile::open(file_);
   std::vector<std::shared_ptr<const deform::MaterialArrays>> keep;
   const auto c = f.commands(keep);
-  ASSERT_EQ(c.size(), 7u);
+  ASSERT_EQ(c.size(), 9u);
   EXPECT_EQ(c[2].tick, 200u);
   EXPECT_EQ(c[2].command.kind, haptics::LoopCommandKind::ClutchOn);
   EXPECT_EQ(c[5].command.shape.radius, 0.004);
-  ASSERT_EQ(keep.size(), 1u);
+  ASSERT_EQ(keep.size(), 3u);  // the map, and the two tissues (kept, pointing to no map)
   EXPECT_EQ(c[6].command.materials, keep[0].get());
   EXPECT_EQ(keep[0]->stiffness, Rig().stiffness_map().stiffness);
+  EXPECT_EQ(c[7].tick, Rig::kLesionTick);
+  EXPECT_EQ(c[7].command.kind, haptics::LoopCommandKind::SetTissue);
+  ASSERT_NE(c[7].command.tissue, nullptr);
+  EXPECT_EQ(c[7].command.tissue->field->lesion_count, 1u);
+  EXPECT_EQ(c[8].command.tissue->map, nullptr);
+  EXPECT_EQ(keep[1].get(), nullptr);
   const auto d = f.deforms();
   EXPECT_GE(d.size(), 440u);  // 300 Hz for 1.5 s, plus the edits-only steps
   for (std::size_t k = 1; k < d.size(); ++k) ASSERT_EQ(d[k].generation, d[k - 1].generation + 1);
   const auto s = f.snapshots();
   ASSERT_EQ(s.size(), 3u);  // at 0.4, 0.8, 1.2 s
   EXPECT_EQ(s[0].tick, 401u);
+  // The last holds the tissue in force: the vessel's field, the lesion tissue's map.
+  const Rig rig;
+  const DecodedState last = f.snapshot(s[2].tick, *rig.model);
+  ASSERT_NE(last.state.tissue, nullptr);
+  EXPECT_EQ(last.state.core.tissue, last.state.tissue.get());
+  EXPECT_EQ(last.state.surface_tissue, last.state.tissue);
+  EXPECT_EQ(last.state.tissue->field->pulse_count, 1u);
+  EXPECT_EQ(last.state.tissue->field->pulses[0].rate_hz, rig.vessel_tissue->field->pulses[0].rate_hz);
+  ASSERT_TRUE(last.state.materials.edited_tissue_map);
+  EXPECT_EQ(last.state.materials.tissue_map->tissue_of, rig.lesion_tissue->map->tissue_of);
+  EXPECT_EQ(last.state.materials.tissue_map->scale, rig.lesion_tissue->map->scale);
 }
 
 // The file alone is enough to re-run the session bit for bit.
@@ -143,6 +163,8 @@ TEST_F(Recorded, ReplaysBitIdenticalFromTheFileAlone) {
     ++checked;
   });
   EXPECT_EQ(checked, kTicks);
+  // The session had the tissue edits in it: the lesion under the still probe was felt.
+  EXPECT_GT(results_[Rig::kLesionTick + 50][1].normal_reaction, 1.5 * results_[Rig::kLesionTick - 1][1].normal_reaction);
 }
 
 TEST_F(Recorded, SeeksThroughEverySnapshot) {
@@ -163,6 +185,209 @@ TEST_F(Recorded, SeeksThroughEverySnapshot) {
       ++checked;
     });
     EXPECT_EQ(checked, kTicks - s.tick);
+  }
+}
+
+// Two tissues hold the same values (every array and every fixed part).
+void expect_same_tissue(const haptics::TissueModel& a, const haptics::TissueModel& b) {
+  ASSERT_EQ(a.map == nullptr, b.map == nullptr);
+  if (a.map) {
+    EXPECT_EQ(a.map->tissues, b.map->tissues);
+    EXPECT_EQ(a.map->tissue_of, b.map->tissue_of);
+    EXPECT_EQ(a.map->scale, b.map->scale);
+  }
+  ASSERT_EQ(a.field == nullptr, b.field == nullptr);
+  if (!a.field) return;
+  const tissue::TissueField& f = *a.field;
+  const tissue::TissueField& g = *b.field;
+  EXPECT_EQ(f.tip_radius, g.tip_radius);
+  ASSERT_EQ(f.lesion_count, g.lesion_count);
+  for (std::size_t k = 0; k < f.lesion_count; ++k) {
+    EXPECT_EQ(f.lesions[k].centre, g.lesions[k].centre);
+    EXPECT_EQ(f.lesions[k].inv_axes, g.lesions[k].inv_axes);
+    EXPECT_EQ(f.lesions[k].size2, g.lesions[k].size2);
+    EXPECT_EQ(f.lesions[k].excess, g.lesions[k].excess);
+  }
+  ASSERT_EQ(f.pulse_count, g.pulse_count);
+  for (std::size_t p = 0; p < f.pulse_count; ++p) {
+    EXPECT_EQ(f.pulses[p].rate_hz, g.pulses[p].rate_hz);
+    EXPECT_EQ(f.pulses[p].amplitude, g.pulses[p].amplitude);
+    EXPECT_EQ(f.pulse_weight[p], g.pulse_weight[p]);
+  }
+  EXPECT_EQ(f.pulse_vertices, g.pulse_vertices);
+  EXPECT_EQ(f.breathing, g.breathing);
+  ASSERT_EQ(f.dynamic_count, g.dynamic_count);
+  for (std::size_t r = 0; r < f.dynamic_count; ++r) {
+    EXPECT_EQ(f.dynamic[r].keyframe_count, g.dynamic[r].keyframe_count);
+    for (std::size_t k = 0; k < f.dynamic[r].keyframe_count; ++k) EXPECT_EQ(f.dynamic[r].keyframes[k], g.dynamic[r].keyframes[k]);
+    EXPECT_EQ(f.dynamic[r].guarding, g.dynamic[r].guarding);
+    EXPECT_EQ(f.dynamic_weight[r], g.dynamic_weight[r]);
+  }
+}
+
+// A tissue with every part of the field in use: lesions, a pulse,
+// breathing, a dynamic region with keyframes and guarding, a scaled map.
+std::shared_ptr<const haptics::TissueModel> full_tissue(const mesh::SurfaceMesh& m) {
+  tissue::Lesion l;
+  l.centre = Vec3(0.003, -0.002, -0.005);
+  l.semi_axes = Vec3(0.002, 0.003, 0.004);
+  tissue::Pulse p;
+  p.path = {Vec3(-0.02, 0, 0), Vec3(0.02, 0.001, 0)};
+  p.radius = 0.003;
+  tissue::Breathing b;
+  b.enabled = true;
+  b.rate_bpm = 12;
+  b.scale = 0.02;
+  tissue::DynamicRegion d;
+  d.region = "all";
+  d.keyframes = {{0.5, 1.5, 0.2}, {2.0, 0.8, 0.0}};
+  d.guarding.enabled = true;
+  d.guarding.threshold = 2.5;
+  std::vector<float> weights(m.vertex_count());
+  for (std::size_t i = 0; i < weights.size(); ++i) weights[i] = static_cast<float>(i % 7) / 6.0f;
+  auto t = std::make_shared<haptics::TissueModel>();
+  t->field = std::make_shared<tissue::TissueField>(tissue::make_field(m, 0.007, {l, l}, {p}, b, {d}, {weights}));
+  auto map = std::make_shared<deform::MaterialMap>();
+  map->tissues = {test::material(300), test::material(900), test::material(1500)};
+  for (std::size_t i = 0; i < m.vertex_count(); ++i) {
+    map->tissue_of.push_back(static_cast<std::uint16_t>(i % 3));
+    map->scale.push_back(1.0f + static_cast<float>(i % 5) * 0.25f);
+  }
+  t->map = map;
+  return t;
+}
+
+TEST(StateIo, ASetTissueCommandRoundTrips) {
+  const Rig rig;
+  const std::size_t n = rig.model->mesh->vertex_count();
+  const auto t = full_tissue(*rig.model->mesh);
+  auto c = haptics::LoopCommand::of(haptics::LoopCommandKind::SetTissue);
+  c.tissue = t.get();
+  std::vector<std::shared_ptr<const deform::MaterialArrays>> keep;
+  const haptics::LoopCommand back = decode_command(encode_command(c), n, keep);
+  EXPECT_EQ(back.kind, haptics::LoopCommandKind::SetTissue);
+  ASSERT_NE(back.tissue, nullptr);
+  EXPECT_NE(back.tissue, t.get());
+  ASSERT_EQ(keep.size(), 1u);
+  expect_same_tissue(*back.tissue, *t);
+  // No field, no map: both come back null.
+  const auto empty = std::make_shared<haptics::TissueModel>();
+  c.tissue = empty.get();
+  const haptics::LoopCommand none = decode_command(encode_command(c), n, keep);
+  ASSERT_NE(none.tissue, nullptr);
+  EXPECT_EQ(none.tissue->map, nullptr);
+  EXPECT_EQ(none.tissue->field, nullptr);
+}
+
+// The command's bytes before packing, changed by `edit`, packed again.
+std::vector<std::uint8_t> repacked(const haptics::LoopCommand& c,
+                                   const std::function<void(std::vector<std::uint8_t>&)>& edit) {
+  constexpr std::uint32_t kCommandMagic = 0x31435350;  // "PSC1", state_io.cpp
+  auto bytes = internal::unpack(encode_command(c), kCommandMagic, "command");
+  edit(bytes);
+  return internal::pack(bytes, kCommandMagic);
+}
+
+TEST(StateIo, ABadSetTissuePayloadIsNamed) {
+  const Rig rig;
+  const std::size_t n = rig.model->mesh->vertex_count();
+  const auto t = full_tissue(*rig.model->mesh);
+  auto c = haptics::LoopCommand::of(haptics::LoopCommandKind::SetTissue);
+  c.tissue = t.get();
+  std::vector<std::shared_ptr<const deform::MaterialArrays>> keep;
+  auto message = [&](const std::vector<std::uint8_t>& blob, std::size_t vertices) -> std::string {
+    try {
+      decode_command(blob, vertices, keep);
+    } catch (const DecodeError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  // Cut short (in its last array, and in its first fixed part), and one
+  // vertex more than the tissue was made for.
+  EXPECT_EQ(message(repacked(c, [](auto& b) { b.resize(b.size() - 9); }), n),
+            "SetTissue command: the field's dynamic region 0 weights end early (" + std::to_string(n) + " entries, " +
+                std::to_string(4 * n - 9) + " bytes left)");
+  EXPECT_EQ(message(repacked(c, [](auto& b) { b.resize(sizeof(haptics::LoopCommand) + 5); }), n), "command ends early");
+  EXPECT_EQ(message(encode_command(c), n + 1),
+            "SetTissue command: a tissue map has " + std::to_string(n) + " tissue indices, the mesh " +
+                std::to_string(n + 1) + " vertices");
+  // Counts over their limits, as a damaged file would hold them.
+  auto many = std::make_shared<tissue::TissueField>(*t->field);
+  many->lesion_count = 33;
+  auto bad = std::make_shared<haptics::TissueModel>(haptics::TissueModel{t->map, many});
+  c.tissue = bad.get();
+  EXPECT_EQ(message(encode_command(c), n), "SetTissue command: the field has 33 lesions, at most 32");
+  auto pulses = std::make_shared<tissue::TissueField>(*t->field);
+  pulses->pulse_count = 5;
+  bad = std::make_shared<haptics::TissueModel>(haptics::TissueModel{nullptr, pulses});
+  c.tissue = bad.get();
+  EXPECT_EQ(message(encode_command(c), n), "SetTissue command: the field has 5 pulses, at most 4");
+  // A tissue index past the map's tissues: what validate_tissue says, named.
+  auto map = std::make_shared<deform::MaterialMap>(*t->map);
+  map->tissue_of[7] = 3;
+  bad = std::make_shared<haptics::TissueModel>(haptics::TissueModel{map, nullptr});
+  c.tissue = bad.get();
+  EXPECT_EQ(message(encode_command(c), n),
+            "SetTissue command: tissue: the map's tissue of vertex 7 is 3, but there are 3 tissues");
+  // A flag that is neither 0 nor 1, and a SetTissue without its tissue.
+  c.tissue = t.get();
+  EXPECT_EQ(message(repacked(c, [](auto& b) { b[sizeof(haptics::LoopCommand) + 1] = 7; }), n),
+            "command: the tissue flag is 7, not 0 or 1");
+  EXPECT_EQ(message(repacked(c, [](auto& b) {
+                      b.resize(sizeof(haptics::LoopCommand) + 2);
+                      b.back() = 0;
+                    }), n),
+            "a SetTissue command without its tissue");
+}
+
+TEST(StateIo, ASnapshotWithATissueEditPendingOrInForceRoundTripsAndStepsOnAlike) {
+  const Rig rig;
+  const auto t = full_tissue(*rig.model->mesh);
+  auto s = rig.session();
+  std::array<haptics::ProbeTickInput, 2> in;
+  std::array<haptics::ProbeTickResult, 2> out, again_out;
+  auto step = [&](haptics::Session& session, std::uint64_t n, std::array<haptics::ProbeTickResult, 2>& o) {
+    for (std::size_t j = 0; j < 2; ++j) in[j] = test::input(j, n);
+    session.step(static_cast<double>(n) * 1e-3, in, o);
+  };
+  for (std::uint64_t n = 0; n < 300; ++n) {
+    if (n == 0) {
+      s->apply(haptics::LoopCommand::of(haptics::LoopCommandKind::Enable, 0), 0);
+      s->apply(haptics::LoopCommand::of(haptics::LoopCommandKind::Enable, 1), 0);
+    }
+    step(*s, n, out);
+  }
+  s->set_tissue(t, 0.3);
+  std::vector<haptics::SessionState> snaps{s->snapshot()};  // the edit pending
+  for (std::uint64_t n = 300; n < 400; ++n) step(*s, n, out);
+  snaps.push_back(s->snapshot());  // in force
+  for (const auto& snap : snaps) {
+    const DecodedState d = decode_state(encode_state(snap), *rig.model);
+    ASSERT_NE(d.state.tissue, nullptr);
+    expect_same_tissue(*d.state.tissue, *t);
+    EXPECT_EQ(d.state.core.tissue, d.state.tissue.get());
+    if (snap.core.pending.any()) {
+      EXPECT_EQ(d.state.core.pending.tissue, d.state.tissue.get());
+      EXPECT_EQ(d.state.pending_tissue_map, d.state.tissue->map) << "one copy of the map";
+    } else {
+      EXPECT_EQ(d.state.surface_tissue, d.state.tissue);
+      EXPECT_EQ(d.state.materials.tissue_map, d.state.tissue->map);
+    }
+    // A fresh session (built without the tissue) restored from the bytes
+    // steps on with the same bits as the original from the same state.
+    auto original = rig.session();
+    original->restore(snap);
+    auto again = rig.session();
+    again->restore(d.state);
+    for (std::uint64_t n = snap.tick; n < 700; ++n) {
+      step(*original, n, out);
+      step(*again, n, again_out);
+      for (std::size_t j = 0; j < 2; ++j)
+        ASSERT_TRUE(same_bits(out[j].force_world, again_out[j].force_world)) << "tick " << n;
+    }
+    EXPECT_EQ(original->field(), t->field.get());
+    EXPECT_EQ(again->field(), d.state.tissue->field.get());
   }
 }
 

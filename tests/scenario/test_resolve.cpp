@@ -1,6 +1,9 @@
 // Placing a scenario's lesions: below surface points, and seeded random ones
 // (the same on every machine, inside their ranges and region, apart).
+// Resolving on an organ already loaded (an edited scenario of a running
+// session) gives what resolving from the file gives, with the same errors.
 
+#include "common/test_support.h"
 #include "mesh/generate.h"
 #include "scenario/resolve.h"
 
@@ -74,6 +77,55 @@ TEST(PlaceLesions, AnEmptyRegionIsNamed) {
     FAIL();
   } catch (const ScenarioError& e) {
     EXPECT_STREQ(e.what(), "case.json: /random_lesions/region: the region 'upper' holds no vertex of the organ");
+  }
+}
+
+TEST(ResolveOn, GivesWhatResolveGivesOnTheSameOrganAndTheSameErrors) {
+  const Scenario s = load_scenario(palpa::test::project_data_dir() / "scenarios" / "liver_tumour.json");
+  const Resolved a = resolve(s);
+  const Resolved b = resolve_on(s, a.organ);
+  EXPECT_EQ(b.organ.mesh, a.organ.mesh) << "the organ is not loaded again";
+  EXPECT_EQ(b.scenario, a.scenario);
+  EXPECT_EQ(b.lesions, a.lesions);
+  EXPECT_EQ(b.tissues, a.tissues);
+  EXPECT_EQ(b.base, a.base);
+  EXPECT_EQ(b.materials->tissues, a.materials->tissues);
+  EXPECT_EQ(b.materials->tissue_of, a.materials->tissue_of);
+  EXPECT_EQ(b.materials->scale, a.materials->scale);
+  ASSERT_EQ(b.field->lesion_count, a.field->lesion_count);
+  for (std::size_t k = 0; k < a.field->lesion_count; ++k) {
+    EXPECT_EQ(b.field->lesions[k].centre, a.field->lesions[k].centre);
+    EXPECT_EQ(b.field->lesions[k].size2, a.field->lesions[k].size2);
+  }
+  // The running session's tissue: the resolved map and field themselves.
+  const auto t = tissue_model(b);
+  EXPECT_EQ(t->map, b.materials);
+  EXPECT_EQ(t->field, b.field);
+
+  // An edit that does not resolve: the same error either way.
+  Scenario bad = s;
+  ASSERT_FALSE(bad.lesions.empty());
+  bad.lesions[0].lesion.semi_axes = Vec3(0.01, 0, 0.01);
+  std::string from_file, on_organ;
+  try {
+    resolve(bad);
+  } catch (const ScenarioError& e) {
+    from_file = e.what();
+  }
+  try {
+    resolve_on(bad, a.organ);
+  } catch (const ScenarioError& e) {
+    on_organ = e.what();
+  }
+  EXPECT_FALSE(from_file.empty());
+  EXPECT_EQ(on_organ, from_file);
+  EXPECT_NE(on_organ.find("semi-axis"), std::string::npos) << on_organ;
+  // No organ to resolve on.
+  try {
+    resolve_on(s, mesh::Organ{});
+    FAIL();
+  } catch (const ScenarioError& e) {
+    EXPECT_EQ(e.pointer(), "/organ");
   }
 }
 
