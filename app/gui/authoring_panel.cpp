@@ -2,6 +2,7 @@
 
 #include "app/gui/authoring_panel.h"
 
+#include <QAbstractButton>
 #include <QCheckBox>
 #include <QComboBox>
 #include <QDoubleSpinBox>
@@ -171,6 +172,8 @@ QWidget* AuthoringPanel::build_lesions() {
 
   lesions_ = new QTableWidget(0, 5);
   lesions_->setObjectName("lesionTable");
+  // The table's corner button selects every row: say so like every control.
+  for (QAbstractButton* corner : lesions_->findChildren<QAbstractButton*>()) corner->setToolTip("Select every lesion");
   lesions_->setHorizontalHeaderLabels({"Name", "Depth (mm)", "Radius (mm)", "Ratio", "Visibility"});
   lesions_->setToolTip("The scenario's lesions: double-click a cell to edit it (each edit can be undone)");
   lesions_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);

@@ -35,7 +35,13 @@ double largest_axis(const tissue::Lesion& l) { return l.semi_axes.maxCoeff(); }
 }  // namespace
 
 void apply_to_workbench(Workbench& workbench, const scenario::Scenario& s) {
-  workbench.set_scenario(scenario::resolve(s));
+  const scenario::Resolved* running = workbench.scenario();
+  const bool same_organ = running && running->scenario.organ.resolved == s.organ.resolved &&
+                          running->scenario.organ.unit == s.organ.unit;
+  if (same_organ)
+    workbench.edit_scenario(s);  // a command to the running loop: probes, dent and recording go on
+  else
+    workbench.set_scenario(scenario::resolve(s));  // a first scenario, or another organ: a new loop
 }
 
 std::string ensure_preset_tissue(scenario::Scenario& s, const std::string& key) {

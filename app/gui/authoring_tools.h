@@ -40,10 +40,12 @@ class EllipsoidView;
 
 namespace palpa::app {
 
-/// Runs an edited scenario on the workbench: resolved again and run with
-/// Workbench::set_scenario (for now a restart: probes stay, the dent and
-/// any recording end). Throws (nothing changed) scenario::ScenarioError
-/// for a scenario that does not resolve.
+/// Runs an edited scenario on the workbench. On the organ of the running
+/// scenario it is Workbench::edit_scenario: one command to the running loop
+/// (probes, dent, tick count and any recording go on). A first scenario on
+/// a bare organ, or one on another organ file or unit, is resolved and run
+/// with Workbench::set_scenario (a new loop). Throws (nothing changed)
+/// scenario::ScenarioError for a scenario that does not resolve.
 void apply_to_workbench(Workbench& workbench, const scenario::Scenario& s);
 
 /// The name of a tissue of `s` made from preset `key`, added (from the

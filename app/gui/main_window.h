@@ -433,7 +433,6 @@ class MainWindow : public QMainWindow {
   std::uint32_t last_buttons_ = 0;          // the selected probe's device buttons at the last frame
   int unit_index_ = 0;                      // the unit the organ file was opened with
   QString organ_path_;                      // the organ's mesh file (empty: the default organ or a scenario's)
-  double figures_shown_at_ = -1;
 
   // Authoring.
   bool authoring_ = false;

@@ -123,6 +123,8 @@ void MainWindow::build_authoring_ui(QMenu* file, QAction* before, QMenu* edit) {
   scroll->setWidget(author_panel_);
   author_dock_ = new QDockWidget("Authoring", this);
   author_dock_->setObjectName("authoringDock");
+  author_dock_->toggleViewAction()->setToolTip("Show the Authoring panel (lesions, tissue, task, breathing, pulses, "
+                                               "brush); closing it leaves Author mode");
   author_dock_->setWidget(scroll);
   addDockWidget(Qt::LeftDockWidgetArea, author_dock_);
   author_dock_->hide();

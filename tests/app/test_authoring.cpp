@@ -144,8 +144,15 @@ TEST_F(AuthoringTest, PlaceMoveUndoRedoSaveAndReadBack) {
   const auto p = point_on_organ(*w);
   ASSERT_TRUE(p.has_value());
   const Vec3 at = *pick(*w, *p);
+  const haptics::HapticLoop* loop_before = w->workbench().loop();
+  ASSERT_NE(loop_before, nullptr);
   QTest::mouseClick(vp, Qt::LeftButton, Qt::NoModifier, *p);
   ASSERT_EQ(doc->scenario().lesions.size(), 1u) << w->error_text().toStdString();
+  // An edit is a command to the running loop, not a restart: the same
+  // loop goes on ticking.
+  EXPECT_EQ(w->workbench().loop(), loop_before) << "placing a lesion restarted the simulation";
+  const std::uint64_t ticks_after_edit = w->workbench().statistics().ticks;
+  EXPECT_TRUE(wait_until([&] { return w->workbench().statistics().ticks > ticks_after_edit; }));
   const scenario::LesionSpec placed = doc->scenario().lesions[0];
   EXPECT_EQ(placed.lesion.name, "L1");
   EXPECT_TRUE(placed.from_surface);
@@ -236,6 +243,22 @@ TEST_F(AuthoringTest, PlaceMoveUndoRedoSaveAndReadBack) {
   EXPECT_FALSE(w->xray());
   EXPECT_EQ(w->lesions_drawn(), 0u);
   EXPECT_FALSE(w->findChild<QAction*>("authorMode")->isChecked());
+  EXPECT_EQ(w->mode(), WorkbenchMode::Explore) << "authoring is the Author mode";
+  // The Mode menu leads too: Author turns authoring on, Exam turns it off
+  // (no x-ray, no lesion drawn, no authoring panel in front of a trainee).
+  ASSERT_TRUE(w->set_mode(WorkbenchMode::Author));
+  EXPECT_TRUE(w->authoring());
+  EXPECT_TRUE(w->xray());
+  EXPECT_EQ(w->lesions_drawn(), 1u);
+  ASSERT_TRUE(w->set_mode(WorkbenchMode::Exam));
+  EXPECT_FALSE(w->authoring());
+  EXPECT_FALSE(w->xray());
+  EXPECT_EQ(w->lesions_drawn(), 0u);
+  EXPECT_FALSE(w->findChild<QDockWidget*>("authoringDock")->isVisible());
+  w->findChild<QAction*>("authorMode")->trigger();  // Edit > Author scenario leaves the exam for Author mode
+  EXPECT_EQ(w->mode(), WorkbenchMode::Author);
+  EXPECT_TRUE(w->authoring());
+  w->set_authoring(false);
   if (const char* shots = std::getenv("PALPA_TEST_SCREENSHOTS"); shots && *shots) {
     w->set_authoring(true);
     QTest::qWait(200);
