@@ -15,6 +15,8 @@
 
 #include "haptics/session.h"
 #include "record/session_file.h"
+#include "record/state_io.h"
+#include "tissue/field.h"
 
 #include <sqlite3.h>
 #include <unistd.h>
@@ -70,7 +72,54 @@ const char* const kEdits[] = {
     "INSERT INTO commands(tick, time, kind, probe, immediate, payload) VALUES (10, 0.01, 7, 0, 0, ?1)",
     "INSERT INTO events(tick, time, kind, probe, x, y, z, value, text) VALUES (5, 0.005, 'mark', 0, 0, 0, 0, 0.01, ?1)",
     "UPDATE meta SET value = ?1 WHERE key = 'layout'",
+    // A new tissue (map and field) as a recorded command: the largest payload decoder.
+    "INSERT INTO commands(tick, time, kind, probe, immediate, payload) VALUES (10, 0.01, 12, 0, 0, ?1)",
 };
+constexpr std::uint8_t kInsertSetTissue = 20;  // its index in kEdits
+
+// PALPA_FUZZ_WRITE_SEEDS=DIR: writes the seeds that need our encoders (a
+// SetTissue command with every part of the tissue in use, for the
+// template's mesh) into DIR and exits; fuzz/corpus/session holds them.
+void write_seeds(const char* dir) {
+  const std::filesystem::path path = folder() / "seed.palpa";
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << template_bytes();
+  }
+  const auto f = palpa::record::SessionFile::open(path);
+  const auto mesh = f.mesh();
+  using namespace palpa;
+  tissue::Lesion l;
+  l.centre = mesh->positions[0] * 0.8;
+  l.semi_axes = Vec3(0.004, 0.005, 0.006);
+  tissue::Pulse p;
+  p.path = {mesh->positions[0], mesh->positions[mesh->vertex_count() / 2]};
+  p.radius = 0.02;
+  tissue::Breathing b;
+  b.enabled = true;
+  b.scale = 0.02;
+  tissue::DynamicRegion d;
+  d.region = "all";
+  d.keyframes = {{0.5, 1.5, 0.2}, {2.0, 0.8, 0.0}};
+  d.guarding.enabled = true;
+  std::vector<float> weights(mesh->vertex_count(), 0.5f);
+  auto t = std::make_shared<haptics::TissueModel>();
+  t->field = std::make_shared<tissue::TissueField>(tissue::make_field(*mesh, 0.007, {l}, {p}, b, {d}, {weights}));
+  auto map = std::make_shared<deform::MaterialMap>();
+  map->tissues = {f.initial_materials().at(0), f.initial_materials().at(0)};
+  map->tissues[1].stiffness *= 3;
+  for (std::size_t i = 0; i < mesh->vertex_count(); ++i) {
+    map->tissue_of.push_back(static_cast<std::uint16_t>(i % 2));
+    map->scale.push_back(1.0f + static_cast<float>(i % 3) * 0.5f);
+  }
+  t->map = map;
+  auto c = haptics::LoopCommand::of(haptics::LoopCommandKind::SetTissue);
+  c.tissue = t.get();
+  const std::vector<std::uint8_t> payload = record::encode_command(c);
+  std::ofstream out(std::filesystem::path(dir) / "edit_settissue", std::ios::binary | std::ios::trunc);
+  out.put(static_cast<char>(kInsertSetTissue));
+  out.write(reinterpret_cast<const char*>(payload.data()), static_cast<std::streamsize>(payload.size()));
+}
 
 bool apply_edit(const std::filesystem::path& path, const std::uint8_t* data, std::size_t size) {
   sqlite3* db = nullptr;
@@ -96,6 +145,10 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   std::ifstream in(PALPA_FUZZ_SESSION_TEMPLATE, std::ios::binary);
   template_bytes().assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   if (template_bytes().size() < 100) std::abort();
+  if (const char* dir = std::getenv("PALPA_FUZZ_WRITE_SEEDS"); dir && *dir) {
+    write_seeds(dir);
+    std::exit(0);
+  }
   return 0;
 }
 
