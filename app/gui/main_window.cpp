@@ -1202,12 +1202,10 @@ bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
 // ---------------------------------------------------------------------------
 // The frame: the loop's latest state, the changed stream entries to the GPU, draw.
 void MainWindow::advance() { frame(true); }
-// Drawing only on change (frame(false)) is built (scene_changed(): new
-// stream entries, scene edits, hover, breathing, replayed ticks, props whose
-// redraw time moved) but not switched on: with it the frame timer's ticks
-// made MainWindowTest.HiddenLesions fail 1 run in 4 here (the pressed
-// pictures with and without a hidden lesion differed), cause not found.
-void MainWindow::frame_tick() { frame(true); }
+// The frame timer draws only on change (scene_changed(): new stream
+// entries, scene edits, hover, breathing, replayed ticks, props whose
+// redraw time moved), so an idle window costs next to nothing.
+void MainWindow::frame_tick() { frame(false); }
 
 void MainWindow::frame(bool always_draw) {
   if (in_replay()) {

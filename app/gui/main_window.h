@@ -202,9 +202,8 @@ class MainWindow : public QMainWindow {
   /// Reads the haptic loop's latest state, moves the changed stream entries
   /// to the GPU and draws one frame (always: tests and scripts call it).
   void advance();
-  /// What the frame timer calls: advance()'s work. Drawing only when
-  /// something shown changed is built (frame(false)) but off: it made
-  /// MainWindowTest.HiddenLesions intermittent (main_window.cpp says more).
+  /// What the frame timer calls: advance()'s work, drawing only when
+  /// something shown changed (an idle window draws nothing).
   void frame_tick();
   /// Frames this window drew (advance(), frame_tick() and scene edits).
   std::uint64_t renders() const { return renders_; }
