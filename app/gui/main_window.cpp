@@ -7,6 +7,10 @@
 #include "app/gui/diagnostics_panel.h"
 #include "app/gui/exam_panel.h"
 #include "app/gui/force_plot.h"
+#include "app/gui/material_panel.h"
+#include "app/gui/probe_panel.h"
+#include "app/gui/probe_tool.h"
+#include "app/gui/readouts_panel.h"
 #include "app/gui/replay_panel.h"
 #include "app/gui/session_browser.h"
 #include "app/gui/session_player.h"
@@ -74,8 +78,6 @@ VTK_MODULE_INIT(vtkInteractionStyle);
 namespace palpa::app {
 namespace {
 
-constexpr double kDepthPerPixel = 5e-5;   // m of indentation per pixel of downward drag
-constexpr double kDepthPerWheelStep = 5e-4;  // m per wheel notch while pressing
 constexpr int kMaxRecent = 8;
 
 QString mm(double metres, int decimals = 1) { return QString::number(metres * 1e3, 'f', decimals); }
@@ -198,59 +200,21 @@ void MainWindow::build_ui() {
   organ_dock->setWidget(organ);
   addDockWidget(Qt::RightDockWidgetArea, organ_dock);
 
-  // Probes dock: list, add, remove.
-  auto* probes = new QWidget;
-  auto* probes_layout = new QVBoxLayout(probes);
-  probe_list_ = new QListWidget;
-  probe_list_->setObjectName("probeList");
-  probes_layout->addWidget(probe_list_);
-  auto* buttons = new QHBoxLayout;
-  auto* add = new QPushButton("Add");
-  auto* remove = new QPushButton("Remove");
-  add->setObjectName("addProbe");
-  remove->setObjectName("removeProbe");
-  buttons->addWidget(add);
-  buttons->addWidget(remove);
-  probes_layout->addLayout(buttons);
-  probes_layout->addWidget(new QLabel("Left-drag on the organ: press (drag down = deeper,\n"
-                                      "wheel while pressing = depth, Shift = slide).\n"
-                                      "Left-drag elsewhere: rotate. Wheel: zoom."));
-  connect(add, &QPushButton::clicked, this, &MainWindow::add_probe);
-  connect(remove, &QPushButton::clicked, this, &MainWindow::remove_selected_probe);
-  connect(probe_list_, &QListWidget::currentRowChanged, this, [this](int row) {
-    if (row >= 0 && row < static_cast<int>(workbench_.probes().size()))
-      workbench_.select_probe(workbench_.probes()[static_cast<std::size_t>(row)].id);
-  });
+  // Probes dock: list, add, remove (probe_panel.h). The list shows the
+  // workbench's selection, so Remove removes the selected probe.
+  auto* probes = probe_panel_ = new ProbePanel;
+  connect(probe_panel_, &ProbePanel::add_requested, this, &MainWindow::add_probe);
+  connect(probe_panel_, &ProbePanel::remove_requested, this, [this](int) { remove_selected_probe(); });
+  connect(probe_panel_, &ProbePanel::selected, this, [this](int id) { workbench_.select_probe(id); });
   auto* probes_dock = new QDockWidget("Probes", this);
   probes_dock->setObjectName("probesDock");
   probes_dock->setWidget(probes);
   addDockWidget(Qt::RightDockWidgetArea, probes_dock);
 
-  // Readouts dock: numbers and the force plot.
-  auto* readouts = new QWidget;
-  auto* readouts_layout = new QFormLayout(readouts);
-  force_label_ = new QLabel("0.00 N");
-  depth_label_ = new QLabel("0.0 mm");
-  force_label_->setObjectName("forceReadout");
-  depth_label_->setObjectName("depthReadout");
-  readouts_layout->addRow("Force", force_label_);
-  readouts_layout->addRow("Indentation", depth_label_);
-  device_label_ = new QLabel;
-  warnings_label_ = new QLabel;
-  device_label_->setObjectName("deviceStatus");
-  warnings_label_->setObjectName("loopWarnings");
-  device_label_->setWordWrap(true);
-  warnings_label_->setWordWrap(true);
-  warnings_label_->setStyleSheet("QLabel { color: #a05a00; }");
-  reenable_button_ = new QPushButton("Re-enable device");
-  reenable_button_->setObjectName("reenableDevice");
-  reenable_button_->setToolTip("Re-enable force output of the selected probe's device (clears a latched fault)");
-  connect(reenable_button_, &QPushButton::clicked, this, &MainWindow::reenable_selected);
-  readouts_layout->addRow("Device", device_label_);
-  readouts_layout->addRow(reenable_button_);
-  readouts_layout->addRow(warnings_label_);
-  plot_ = new ForcePlot;
-  readouts_layout->addRow(plot_);
+  // Readouts dock: numbers and the force plot (readouts_panel.h).
+  auto* readouts = readouts_panel_ = new ReadoutsPanel;
+  plot_ = readouts_panel_->plot();
+  connect(readouts_panel_, &ReadoutsPanel::reenable_requested, this, &MainWindow::reenable_selected);
   auto* readouts_dock = new QDockWidget("Readouts", this);
   readouts_dock->setObjectName("readoutsDock");
   readouts_dock->setWidget(readouts);
@@ -281,7 +245,10 @@ void MainWindow::build_ui() {
   material_scroll->setWidgetResizable(true);
   material_scroll->setFrameShape(QFrame::NoFrame);
   material_scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
-  QWidget* panel = build_material_panel();
+  // The material panel (material_panel.h): an edit goes to the workbench.
+  QWidget* panel = material_panel_ = new MaterialPanel;
+  connect(material_panel_, &MaterialPanel::edited, this, &MainWindow::apply_material);
+  connect(material_panel_, &MaterialPanel::restore_requested, this, &MainWindow::restore_tissue_map);
   material_scroll->setMinimumWidth(std::max(360, panel->sizeHint().width() +
                                                      material_scroll->verticalScrollBar()->sizeHint().width() + 8));
   material_scroll->setWidget(panel);
@@ -291,134 +258,22 @@ void MainWindow::build_ui() {
   hover_view_ = std::make_unique<render::ProbeView>();
   hover_view_->add_to(vtk_->renderer);
   hover_view_->set_visible(false);
+
+  // The mouse probe on the viewport (probe_tool.h): it picks the organ as
+  // drawn, the window shows where it would touch and lists its probes.
+  probe_tool_ = new ProbeTool(
+      workbench_,
+      [this](const QPoint& pos, Vec3& rest, Vec3& normal, Vec3& drawn) { return pick_at(pos, rest, normal, drawn); },
+      [this] { return in_replay(); }, this);
+  connect(probe_tool_, &ProbeTool::hover, this, [this](bool shown, const Vec3& point, const Vec3& normal) {
+    if (shown) hover_view_->set_state(point, normal, Vec3::Zero(), false, true);
+    hover_view_->set_visible(shown);
+    scene_dirty_ = true;
+  });
+  connect(probe_tool_, &ProbeTool::probeSelected, this, [this] { refresh_probe_list(); });
+  connect(probe_tool_, &ProbeTool::probeAdded, this, [this] { need_full_sync_ = true; });
+  connect(probe_tool_, &ProbeTool::failed, this, &MainWindow::show_error);
   statusBar()->showMessage("Ready");
-}
-
-// The material panel: a tissue in kPa (Hertz contact at the probe tip), the
-// probe, and the advanced linear local model in N/m; applied to the whole
-// organ at once.
-QWidget* MainWindow::build_material_panel() {
-  auto* w = new QWidget;
-  auto* outer = new QVBoxLayout(w);
-  auto* form = new QFormLayout;
-  outer->addLayout(form);
-  auto spin = [&](const char* name, double lo, double hi, double step, int decimals, const char* suffix,
-                  const QString& tip) {
-    auto* s = new QDoubleSpinBox;
-    s->setObjectName(name);
-    s->setRange(lo, hi);
-    s->setSingleStep(step);
-    s->setDecimals(decimals);
-    s->setSuffix(suffix);
-    s->setKeyboardTracking(false);
-    s->setToolTip(tip);
-    connect(s, qOverload<double>(&QDoubleSpinBox::valueChanged), this, &MainWindow::apply_material);
-    return s;
-  };
-
-  // With a scenario: what editing here does to its tissue map, and the undo.
-  scenario_note_ = new QLabel;
-  scenario_note_->setObjectName("scenarioMaterialNote");
-  scenario_note_->setWordWrap(true);
-  scenario_note_->setStyleSheet("QLabel { color: #a05a00; }");
-  scenario_note_->hide();
-  outer->insertWidget(0, scenario_note_);
-  restore_map_ = new QPushButton("Restore the scenario's tissues");
-  restore_map_->setObjectName("restoreTissueMap");
-  restore_map_->setToolTip("Undo the material edit: the scenario's tissue map (its tissues and regions) again");
-  restore_map_->hide();
-  connect(restore_map_, &QPushButton::clicked, this, &MainWindow::restore_tissue_map);
-  form->addRow(restore_map_);
-
-  // The tissue: a preset or values of its own.
-  preset_box_ = new QComboBox;
-  preset_box_->setObjectName("presetBox");
-  preset_box_->setToolTip("Published tissue values (data/tissues.json); hover an entry for its source");
-  preset_box_->addItem("Custom", QString());
-  try {
-    for (const tissue::Preset& p : tissue::presets()) {
-      preset_box_->addItem(QString::fromStdString(p.tissue.name.empty() ? p.key : p.tissue.name),
-                           QString::fromStdString(p.key));
-      preset_box_->setItemData(preset_box_->count() - 1, QString::fromStdString(p.tissue.source), Qt::ToolTipRole);
-    }
-  } catch (const std::exception& e) {
-    preset_box_->setToolTip(QString("No presets: %1").arg(e.what()));
-  }
-  connect(preset_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_preset);
-  const MaterialSettings d;
-  youngs_kpa_ = spin("youngsModulus", 0.01, 10000, 0.5, 2, " kPa",
-                     "Young's modulus E of the tissue, kPa (Hertz contact: F = 4/3 E/(1-nu^2) sqrt(R) d^1.5)");
-  poisson_ = spin("poisson", 0, 0.499, 0.01, 3, "", "Poisson ratio nu, dimensionless, 0 .. 0.499 (soft tissue ~0.49)");
-  damping_ratio_ = spin("dampingRatio", 0, 10, 0.1, 2, "",
-                        "Damping ratio zeta of the local model at 5 mm indentation, dimensionless (1: critically damped)");
-  relaxation_s_ = spin("relaxationTime", 0, 100, 0.1, 2, " s",
-                       "Viscoelastic relaxation time tau, s (0: elastic): a held press relaxes with this time constant");
-  relaxation_fraction_ = spin("relaxationFraction", 0, 10, 0.05, 2, "",
-                              "Extra force of a quick press, fraction of the relaxed force (used when tau > 0)");
-  stiffening_mm_ = spin("stiffening", 0, 10, 0.01, 3, " /mm",
-                        "Stiffening, 1/mm: the force is multiplied by (1 + stiffening * depth); 0: pure Hertz");
-  tip_radius_mm_ = spin("tipRadius", 0.5, 50, 0.5, 1, " mm", "Radius R of the probe tip, mm (8 mm: a fingertip)");
-  youngs_kpa_->setValue(d.tissue.youngs_modulus * 1e-3);
-  poisson_->setValue(d.tissue.poisson);
-  damping_ratio_->setValue(d.tissue.damping_ratio);
-  relaxation_s_->setValue(d.tissue.relaxation_time);
-  relaxation_fraction_->setValue(d.tissue.relaxation_fraction);
-  stiffening_mm_->setValue(d.tissue.stiffening * 1e-3);
-  tip_radius_mm_->setValue(d.tip_radius * 1e3);
-  form->addRow("Preset", preset_box_);
-  form->addRow("Young's modulus", youngs_kpa_);
-  form->addRow("Poisson ratio", poisson_);
-  form->addRow("Damping ratio", damping_ratio_);
-  form->addRow("Relaxation time", relaxation_s_);
-  form->addRow("Relaxation fraction", relaxation_fraction_);
-  form->addRow("Stiffening", stiffening_mm_);
-  form->addRow("Tip radius", tip_radius_mm_);
-
-  // The contact's spread and eq. (4).
-  shape_box_ = new QComboBox;
-  shape_box_->setObjectName("shapeBox");
-  shape_box_->addItems({"Gaussian", "Wendland C2", "Volume conserving"});
-  shape_box_->setCurrentIndex(1);
-  shape_box_->setToolTip("Shape function: how the dent spreads around the contact");
-  connect(shape_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_material);
-  radius_mm_ = spin("radius", 1, 200, 1, 1, " mm", "Support radius of the shape function, mm (also the deepest press)");
-  friction_ = spin("friction", 0, 2, 0.05, 2, "", "Friction coefficient K of eq. (4), dimensionless");
-  max_force_ = spin("maxForce", 0.1, 100, 0.5, 1, " N", "Largest force the model asks for, N");
-  radius_mm_->setValue(d.radius * 1e3);
-  friction_->setValue(d.friction);
-  max_force_->setValue(d.max_force);
-  form->addRow("Shape function", shape_box_);
-  form->addRow("Radius", radius_mm_);
-  form->addRow("Friction K", friction_);
-  form->addRow("Max force", max_force_);
-
-  // Advanced: the local model's own parameters instead of a tissue.
-  linear_group_ = new QGroupBox("Advanced: local model in N/m instead of the tissue");
-  linear_group_->setObjectName("linearModel");
-  linear_group_->setCheckable(true);
-  linear_group_->setChecked(false);
-  linear_group_->setToolTip("Set the per-vertex local model directly (stiffness N/m, damping N s/m, mass g) "
-                            "instead of a tissue in kPa");
-  connect(linear_group_, &QGroupBox::toggled, this, &MainWindow::apply_material);
-  auto* linear = new QFormLayout(linear_group_);
-  model_box_ = new QComboBox;
-  model_box_->setObjectName("modelBox");
-  model_box_->addItems({"Linear (eq. 1)", "Exponential (stiffening)", "Viscoelastic (relaxing)"});
-  model_box_->setToolTip("Local model kind of every vertex");
-  connect(model_box_, qOverload<int>(&QComboBox::currentIndexChanged), this, &MainWindow::apply_material);
-  stiffness_ = spin("stiffness", 1, 1e5, 10, 1, " N/m", "Stiffness k of every vertex's local model, N/m");
-  damping_ = spin("damping", 0.01, 1e3, 0.5, 2, " N·s/m", "Damping b of every vertex's local model, N s/m");
-  mass_g_ = spin("mass", 0.01, 1e3, 0.1, 2, " g", "Mass m of every vertex's local model, g");
-  stiffness_->setValue(d.stiffness);
-  damping_->setValue(d.damping);
-  mass_g_->setValue(d.mass * 1e3);
-  linear->addRow("Local model", model_box_);
-  linear->addRow("Stiffness", stiffness_);
-  linear->addRow("Damping", damping_);
-  linear->addRow("Mass per vertex", mass_g_);
-  outer->addWidget(linear_group_);
-  outer->addStretch(1);
-  return w;
 }
 
 void MainWindow::build_menus() {
@@ -454,6 +309,7 @@ void MainWindow::build_menus() {
   hold_action_ = probe->addAction("&Hold indentation after release");
   hold_action_->setCheckable(true);
   hold_action_->setChecked(true);
+  connect(hold_action_, &QAction::toggled, probe_tool_, &ProbeTool::set_hold);
 
   QMenu* devices = menuBar()->addMenu("&Devices");
   devices->addAction("&Add device probe...", this, &MainWindow::add_device_dialog);
@@ -484,25 +340,7 @@ void MainWindow::build_menus() {
 void MainWindow::load_settings() {
   QSettings s;
   loading_settings_ = true;
-  const MaterialSettings d;
-  // The tissue (kPa, mm as shown), the law and the preset named.
-  linear_group_->setChecked(s.value("tissue/advanced_linear", false).toBool());
-  youngs_kpa_->setValue(s.value("tissue/youngs_modulus_kpa", d.tissue.youngs_modulus * 1e-3).toDouble());
-  poisson_->setValue(s.value("tissue/poisson", d.tissue.poisson).toDouble());
-  damping_ratio_->setValue(s.value("tissue/damping_ratio", d.tissue.damping_ratio).toDouble());
-  relaxation_s_->setValue(s.value("tissue/relaxation_time_s", d.tissue.relaxation_time).toDouble());
-  relaxation_fraction_->setValue(s.value("tissue/relaxation_fraction", d.tissue.relaxation_fraction).toDouble());
-  stiffening_mm_->setValue(s.value("tissue/stiffening_per_mm", d.tissue.stiffening * 1e-3).toDouble());
-  tip_radius_mm_->setValue(s.value("tissue/tip_radius_mm", d.tip_radius * 1e3).toDouble());
-  preset_box_->setCurrentIndex(std::max(0, preset_box_->findData(s.value("tissue/preset", QString()).toString())));
-  model_box_->setCurrentIndex(std::clamp(s.value("material/model", 0).toInt(), 0, 2));
-  shape_box_->setCurrentIndex(std::clamp(s.value("material/shape", 1).toInt(), 0, 2));
-  stiffness_->setValue(s.value("material/stiffness", d.stiffness).toDouble());
-  damping_->setValue(s.value("material/damping", d.damping).toDouble());
-  mass_g_->setValue(s.value("material/mass_g", d.mass * 1e3).toDouble());
-  radius_mm_->setValue(s.value("material/radius_mm", d.radius * 1e3).toDouble());
-  friction_->setValue(s.value("material/friction", d.friction).toDouble());
-  max_force_->setValue(s.value("material/max_force", d.max_force).toDouble());
+  material_panel_->load(s);  // the tissue (kPa, mm as shown), the law and the preset named
   unit_box_->setCurrentIndex(std::clamp(s.value("organ/unit", 0).toInt(), 0, 3));
   hold_action_->setChecked(s.value("probe/hold", true).toBool());
   force_arrows_action_->setChecked(s.value("view/force_arrows", true).toBool());
@@ -513,28 +351,12 @@ void MainWindow::load_settings() {
   restoreState(s.value("window/state").toByteArray());
   loading_settings_ = false;
   rebuild_recent_menu();
-  apply_material();
+  apply_material(material_panel_->settings());
 }
 
 void MainWindow::save_settings() const {
   QSettings s;
-  s.setValue("tissue/advanced_linear", linear_group_->isChecked());
-  s.setValue("tissue/youngs_modulus_kpa", youngs_kpa_->value());
-  s.setValue("tissue/poisson", poisson_->value());
-  s.setValue("tissue/damping_ratio", damping_ratio_->value());
-  s.setValue("tissue/relaxation_time_s", relaxation_s_->value());
-  s.setValue("tissue/relaxation_fraction", relaxation_fraction_->value());
-  s.setValue("tissue/stiffening_per_mm", stiffening_mm_->value());
-  s.setValue("tissue/tip_radius_mm", tip_radius_mm_->value());
-  s.setValue("tissue/preset", preset_box_->currentData().toString());
-  s.setValue("material/model", model_box_->currentIndex());
-  s.setValue("material/shape", shape_box_->currentIndex());
-  s.setValue("material/stiffness", stiffness_->value());
-  s.setValue("material/damping", damping_->value());
-  s.setValue("material/mass_g", mass_g_->value());
-  s.setValue("material/radius_mm", radius_mm_->value());
-  s.setValue("material/friction", friction_->value());
-  s.setValue("material/max_force", max_force_->value());
+  material_panel_->save(s);
   s.setValue("organ/unit", unit_box_->currentIndex());
   s.setValue("probe/hold", hold_action_->isChecked());
   s.setValue("view/force_arrows", force_arrows_action_->isChecked());
@@ -805,63 +627,9 @@ bool MainWindow::save_screenshot(const QString& path) {
 
 // ---------------------------------------------------------------------------
 // Material panel -> workbench, immediately.
-namespace {
-
-// Same numbers (the name and source aside).
-bool same_values(const tissue::Tissue& a, const tissue::Tissue& b) {
-  return a.youngs_modulus == b.youngs_modulus && a.poisson == b.poisson && a.damping_ratio == b.damping_ratio &&
-         a.relaxation_time == b.relaxation_time && a.relaxation_fraction == b.relaxation_fraction &&
-         a.stiffening == b.stiffening;
-}
-
-const tissue::Preset* preset_at(const QComboBox* box) {
-  const std::string key = box->currentData().toString().toStdString();
-  try {
-    return key.empty() ? nullptr : tissue::find_preset(key);
-  } catch (const std::exception&) {
-    return nullptr;
-  }
-}
-
-}  // namespace
-
-// The tissue as the panel shows it (kPa and mm to SI).
-tissue::Tissue MainWindow::panel_tissue() const {
-  tissue::Tissue t;
-  if (const tissue::Preset* p = preset_at(preset_box_)) t = p->tissue;
-  else t.name = "custom";
-  t.youngs_modulus = youngs_kpa_->value() * 1e3;
-  t.poisson = poisson_->value();
-  t.damping_ratio = damping_ratio_->value();
-  t.relaxation_time = relaxation_s_->value();
-  t.relaxation_fraction = relaxation_fraction_->value();
-  t.stiffening = stiffening_mm_->value() * 1e3;
-  return t;
-}
-
-void MainWindow::apply_material() {
+void MainWindow::apply_material(const MaterialSettings& settings) {
   if (loading_settings_) return;
-  MaterialSettings m = workbench_.material();
-  m.law = linear_group_->isChecked() ? MaterialLaw::Linear : MaterialLaw::Hertz;
-  m.tissue = panel_tissue();
-  // Values edited away from the preset: a custom tissue.
-  if (const tissue::Preset* p = preset_at(preset_box_); p && !same_values(p->tissue, m.tissue)) {
-    const QSignalBlocker block(preset_box_);
-    preset_box_->setCurrentIndex(0);
-    preset_box_->setToolTip("A tissue of its own (no preset)");
-    m.tissue.name = "custom";
-    m.tissue.source.clear();
-  }
-  m.tip_radius = tip_radius_mm_->value() * 1e-3;
-  m.model = static_cast<deform::LocalModelKind>(model_box_->currentIndex());
-  m.shape = static_cast<deform::ShapeKind>(shape_box_->currentIndex());
-  m.stiffness = stiffness_->value();
-  m.damping = damping_->value();
-  m.mass = mass_g_->value() * 1e-3;
-  m.radius = radius_mm_->value() * 1e-3;
-  m.friction = friction_->value();
-  m.max_force = max_force_->value();
-  for (QWidget* t : tissue_widgets()) t->setEnabled(m.law == MaterialLaw::Hertz);
+  MaterialSettings m = settings;
   try {
     workbench_.set_material(m);  // edits of the running loop: the dent and the probes stay
   } catch (const std::exception& e) {
@@ -874,70 +642,10 @@ void MainWindow::apply_material() {
   save_settings();
 }
 
-// A preset fills in the tissue's values, then applies them.
-void MainWindow::apply_preset() {
-  if (loading_settings_) return;
-  if (const tissue::Preset* p = preset_at(preset_box_)) {
-    const tissue::Tissue& t = p->tissue;
-    for (QDoubleSpinBox* b : {youngs_kpa_, poisson_, damping_ratio_, relaxation_s_, relaxation_fraction_,
-                              stiffening_mm_})
-      b->blockSignals(true);
-    youngs_kpa_->setValue(t.youngs_modulus * 1e-3);
-    poisson_->setValue(t.poisson);
-    damping_ratio_->setValue(t.damping_ratio);
-    relaxation_s_->setValue(t.relaxation_time);
-    relaxation_fraction_->setValue(t.relaxation_fraction);
-    stiffening_mm_->setValue(t.stiffening * 1e-3);
-    for (QDoubleSpinBox* b : {youngs_kpa_, poisson_, damping_ratio_, relaxation_s_, relaxation_fraction_,
-                              stiffening_mm_})
-      b->blockSignals(false);
-    preset_box_->setToolTip(QString::fromStdString(t.source));
-  }
-  apply_material();
-}
-
-std::vector<QWidget*> MainWindow::tissue_widgets() const {
-  return {preset_box_, youngs_kpa_, poisson_, damping_ratio_, relaxation_s_, relaxation_fraction_, stiffening_mm_,
-          tip_radius_mm_};
-}
-
 // The panel shows the workbench's settings (after a scenario set them),
 // without applying anything.
 void MainWindow::sync_material_panel() {
-  const MaterialSettings& m = workbench_.material();
-  const bool was_loading = loading_settings_;
-  loading_settings_ = true;
-  linear_group_->setChecked(m.law == MaterialLaw::Linear);
-  youngs_kpa_->setValue(m.tissue.youngs_modulus * 1e-3);
-  poisson_->setValue(m.tissue.poisson);
-  damping_ratio_->setValue(m.tissue.damping_ratio);
-  relaxation_s_->setValue(m.tissue.relaxation_time);
-  relaxation_fraction_->setValue(m.tissue.relaxation_fraction);
-  stiffening_mm_->setValue(m.tissue.stiffening * 1e-3);
-  tip_radius_mm_->setValue(m.tip_radius * 1e3);
-  // The preset with these values (and this source, when several have them).
-  int by_values = 0, by_source = 0;
-  try {
-    const auto& presets = tissue::presets();
-    for (std::size_t k = 0; k < presets.size(); ++k) {
-      if (!same_values(presets[k].tissue, m.tissue)) continue;
-      if (by_values == 0) by_values = static_cast<int>(k) + 1;
-      if (by_source == 0 && presets[k].tissue.source == m.tissue.source) by_source = static_cast<int>(k) + 1;
-    }
-  } catch (const std::exception&) {
-  }
-  const int preset = by_source != 0 ? by_source : by_values;
-  preset_box_->setCurrentIndex(preset);
-  shape_box_->setCurrentIndex(static_cast<int>(m.shape));
-  radius_mm_->setValue(m.radius * 1e3);
-  friction_->setValue(m.friction);
-  max_force_->setValue(m.max_force);
-  model_box_->setCurrentIndex(static_cast<int>(m.model));
-  stiffness_->setValue(m.stiffness);
-  damping_->setValue(m.damping);
-  mass_g_->setValue(m.mass * 1e3);
-  for (QWidget* t : tissue_widgets()) t->setEnabled(m.law == MaterialLaw::Hertz);
-  loading_settings_ = was_loading;
+  material_panel_->set_settings(workbench_.material());
   update_scenario_note();
 }
 
@@ -946,10 +654,10 @@ void MainWindow::update_scenario_note() {
   const scenario::Resolved* sc = workbench_.scenario();
   const bool replaced = sc && !workbench_.tissue_map_in_force();
   if (!sc) {
-    scenario_note_->hide();
+    material_panel_->set_scenario_note(QString());
   } else {
     const auto& s = sc->scenario;
-    scenario_note_->setText(
+    material_panel_->set_scenario_note(
         replaced ? QString("The scenario's tissue map is replaced: the tissue below now holds for the whole organ. "
                            "Edit > Undo material edit (or the button) restores the scenario's tissues.")
                  : QString("The scenario sets its own tissue map (%1 tissue(s), %2 region(s)); shown here is its "
@@ -958,9 +666,8 @@ void MainWindow::update_scenario_note() {
                        .arg(s.tissues.size())
                        .arg(s.regions.size())
                        .arg(QString::fromStdString(s.base_tissue)));
-    scenario_note_->show();
   }
-  restore_map_->setVisible(replaced);
+  material_panel_->set_restore_visible(replaced);
   undo_material_->setEnabled(replaced);
 }
 
@@ -1038,20 +745,9 @@ void MainWindow::remove_selected_probe() {
 }
 
 void MainWindow::refresh_probe_list() {
-  const QSignalBlocker block(probe_list_);
-  probe_list_->clear();
-  int row = 0;
-  for (const Probe& p : workbench_.probes()) {
-    const QString label = p.host_fed && p.device == "mouse"
-                              ? QString("Probe %1").arg(p.id)
-                              : QString("Probe %1 (%2)").arg(p.id).arg(QString::fromStdString(p.device));
-    const QColor colour = ForcePlot::probe_colour(p.id);
-    probe_list_->addItem(label);
-    probe_list_->item(row)->setData(Qt::DecorationRole, colour);  // its trace's and glyph's colour
-    plot_->set_probe(p.id, label, colour);
-    if (p.id == workbench_.selected_id()) probe_list_->setCurrentRow(row);
-    ++row;
-  }
+  probe_panel_->refresh(workbench_.probes(), workbench_.selected_id());
+  for (const Probe& p : workbench_.probes())
+    plot_->set_probe(p.id, ProbePanel::label(p), ForcePlot::probe_colour(p.id));  // its trace's and glyph's colour
 }
 
 void MainWindow::reset() {
@@ -1097,91 +793,6 @@ bool MainWindow::pick_at(const QPoint& pos, Vec3& rest_point, Vec3& rest_normal,
   return true;
 }
 
-bool MainWindow::mouse_press(QMouseEvent* e) {
-  if (e->button() != Qt::LeftButton || !workbench_.has_organ() || in_replay()) return false;
-  Vec3 rest, normal, drawn;
-  if (!pick_at(e->pos(), rest, normal, drawn)) return false;  // off the organ: VTK rotates
-  const int id = mouse_probe_for(rest);
-  if (id == 0) return true;
-  workbench_.select_probe(id);
-  refresh_probe_list();
-  workbench_.place(id, rest, normal, 0.0);
-  indenting_ = true;
-  press_pos_ = e->pos();
-  press_depth_ = 0;
-  hover_view_->set_visible(false);
-  return true;
-}
-
-// Pressing near a placed mouse probe takes that probe; else the selected one
-// when the mouse drives it, else the first mouse probe, else a new one.
-int MainWindow::mouse_probe_for(const Vec3& rest) {
-  int id = 0;
-  if (const Probe* s = workbench_.selected_probe(); s && s->host_fed) id = s->id;
-  const double near = 0.1 * workbench_.material().radius;
-  for (const Probe& p : workbench_.probes()) {
-    if (!p.host_fed) continue;
-    if (id == 0 || (p.placed && (p.anchor - rest).norm() < near)) id = p.id;
-  }
-  if (id != 0) return id;
-  try {
-    id = workbench_.add_probe();
-  } catch (const std::exception& e) {
-    show_error(QString("Could not add a probe: %1").arg(e.what()));
-    return 0;
-  }
-  need_full_sync_ = true;
-  return id;
-}
-
-bool MainWindow::mouse_move(QMouseEvent* e) {
-  if (indenting_) {
-    Probe* p = workbench_.selected_probe();
-    if (!p || !p->host_fed) return true;
-    if (e->modifiers() & Qt::ShiftModifier) {
-      // Slide: follow the surface under the cursor at the same depth.
-      Vec3 rest, normal, drawn;
-      if (pick_at(e->pos(), rest, normal, drawn)) workbench_.place(p->id, rest, normal, p->depth);
-      press_pos_ = e->pos();
-      press_depth_ = p->depth;
-    } else {
-      // Depth by dragging down.
-      const double drag = (e->pos().y() - press_pos_.y()) * kDepthPerPixel;
-      workbench_.set_depth(p->id, press_depth_ + drag);
-    }
-    return true;
-  }
-  if (e->buttons() != Qt::NoButton || in_replay()) return false;  // VTK is rotating or zooming
-  // Hover: show where the probe would touch.
-  Vec3 rest, normal, drawn;
-  if (pick_at(e->pos(), rest, normal, drawn)) {
-    hover_view_->set_state(drawn, normal, Vec3::Zero(), false, true);
-    hover_view_->set_visible(true);
-  } else {
-    hover_view_->set_visible(false);
-  }
-  scene_dirty_ = true;
-  return false;
-}
-
-bool MainWindow::mouse_release(QMouseEvent* e) {
-  if (!indenting_ || e->button() != Qt::LeftButton) return false;
-  indenting_ = false;
-  if (!hold_action_->isChecked())
-    if (Probe* p = workbench_.selected_probe()) workbench_.set_depth(p->id, 0.0);
-  return true;
-}
-
-bool MainWindow::wheel(QWheelEvent* e) {
-  if (!indenting_) return false;  // VTK zooms
-  Probe* p = workbench_.selected_probe();
-  if (!p || !p->host_fed) return true;
-  const double steps = e->angleDelta().y() / 120.0;
-  press_depth_ += steps * kDepthPerWheelStep;
-  workbench_.set_depth(p->id, p->depth + steps * kDepthPerWheelStep);
-  return true;
-}
-
 bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
   if (watched == error_banner_ && event->type() == QEvent::MouseButtonRelease) {
     clear_error();
@@ -1189,14 +800,8 @@ bool MainWindow::eventFilter(QObject* watched, QEvent* event) {
   }
   if (watched != viewport_) return QMainWindow::eventFilter(watched, event);
   if (authoring_ && !in_replay() && author_tools_->handle(event)) return true;  // the authoring tools first
-  switch (event->type()) {
-    case QEvent::MouseButtonPress: return mouse_press(static_cast<QMouseEvent*>(event));
-    case QEvent::MouseMove: return mouse_move(static_cast<QMouseEvent*>(event));
-    case QEvent::MouseButtonRelease: return mouse_release(static_cast<QMouseEvent*>(event));
-    case QEvent::Wheel: return wheel(static_cast<QWheelEvent*>(event));
-    case QEvent::Leave: hover_view_->set_visible(false); scene_dirty_ = true; return false;
-    default: return QMainWindow::eventFilter(watched, event);
-  }
+  if (probe_tool_->handle(event)) return true;  // then the mouse probe
+  return QMainWindow::eventFilter(watched, event);
 }
 
 // ---------------------------------------------------------------------------
@@ -1331,38 +936,8 @@ void MainWindow::sync_probe_views() {
 }
 
 void MainWindow::update_readouts() {
-  const double t = workbench_.time();
-  // The plot: probes that are gone lose their trace; the clamp as a line.
-  std::vector<int> ids;
-  for (const Probe& p : workbench_.probes()) {
-    ids.push_back(p.id);
-    if (p.placed) plot_->add_sample(p.id, t, p.output.force.norm());
-  }
-  plot_->retain(ids);
-  plot_->advance_to(t);
-  plot_->set_clamp(workbench_.material().max_force);
-  QString status;
-  if (const Probe* p = workbench_.selected_probe()) {
-    force_label_->setText(QString::number(p->output.force.norm(), 'f', 2) + " N");
-    depth_label_->setText(mm(p->output.in_contact ? p->output.depth : 0.0) + " mm");
-    // Device state: the plugin's message, a latched fault, the safety flags.
-    QStringList lines;
-    if (p->dev) lines << QString::fromStdString(p->dev->message());
-    if (!p->fault_text.empty())
-      lines << QString("<b>Fault latched: %1</b> - press Re-enable").arg(QString::fromStdString(p->fault_text));
-    if (p->force_output) {
-      for (const auto& f : haptics::describe_safety_flags(p->output.flags))
-        lines << QString::fromStdString(f);
-    }
-    status = lines.join("<br>");
-    reenable_button_->setEnabled(p->force_output);
-  } else {
-    // No probe selected (the last one removed): nothing to read out.
-    force_label_->setText("-");
-    depth_label_->setText("-");
-    reenable_button_->setEnabled(false);
-  }
-  if (device_label_->text() != status) device_label_->setText(status);
+  readouts_panel_->update(workbench_.probes(), workbench_.selected_id(), workbench_.time(),
+                          workbench_.material().max_force);
   const haptics::LoopStatistics st = workbench_.statistics();
   haptic_rate_ = st.achieved_rate_hz;
   // The loop's figures jitter on every frame; shown twice a second, an idle
@@ -1375,15 +950,11 @@ void MainWindow::update_readouts() {
   // Loop warnings (no real-time priority, missed deadlines, ...).
   QStringList warnings;
   for (const auto& w : haptics::describe_warnings(workbench_.view().warnings)) warnings << QString::fromStdString(w);
-  const QString text = warnings.join("\n");
-  if (warnings_label_->text() != text) {
-    warnings_label_->setText(text);
-    warnings_label_->setToolTip(QString::fromStdString(st.realtime_notice));
-  }
+  readouts_panel_->set_warnings(warnings.join("\n"), QString::fromStdString(st.realtime_notice));
 }
 
-QString MainWindow::warnings_text() const { return warnings_label_->text(); }
-QString MainWindow::device_status_text() const { return device_label_->text(); }
+QString MainWindow::warnings_text() const { return readouts_panel_->warnings_text(); }
+QString MainWindow::device_status_text() const { return readouts_panel_->device_status_text(); }
 
 // ---------------------------------------------------------------------------
 // Sessions: Record / Stop with the trainee's name, the browser, the replay.
@@ -1596,7 +1167,7 @@ bool MainWindow::open_replay(const QString& path) {
     for (auto& [id, pv] : probe_views_) pv->set_visible(false);
     for (auto& lv : lesion_views_) vtk_->inclusions->RemoveActor(lv->actor());
     hover_view_->set_visible(false);
-    indenting_ = false;
+    probe_tool_->cancel();
   } else {
     vtk_->renderer->RemoveActor(replay_view_->actor());
     for (auto& pv : replay_probe_views_) pv->remove_from(vtk_->renderer);

@@ -53,6 +53,10 @@ class ExamPanel;
 class AuthoringPanel;
 class AuthoringTools;
 class ForcePlot;
+class MaterialPanel;
+class ProbePanel;
+class ProbeTool;
+class ReadoutsPanel;
 class ReplayPanel;
 class ScenarioDocument;
 class SessionBrowser;
@@ -284,7 +288,6 @@ class MainWindow : public QMainWindow {
   void sync_session_actions();
   void update_recording_status();
   void draw_replay();
-  QWidget* build_material_panel();
   void load_settings();
   void save_settings() const;
   void show_error(const QString& text);
@@ -295,26 +298,17 @@ class MainWindow : public QMainWindow {
   void show_task();
   void apply_frame_transform();
   void rebuild_lesion_views();
-  void apply_preset();
   void sync_material_panel();
   void update_scenario_note();
-  tissue::Tissue panel_tissue() const;
-  std::vector<QWidget*> tissue_widgets() const;
   void add_recent(const QString& path);
   void rebuild_recent_menu();
-  void apply_material();
+  void apply_material(const MaterialSettings& m);
   void refresh_probe_list();
   void sync_probe_views();
   void update_readouts();
   void pull_surface();
-  // The selected probe if the mouse drives it, else a mouse probe to use.
-  int mouse_probe_for(const Vec3& rest);
-  // Mouse: display coordinates of a widget position, and the three gestures.
+  // Mouse: the organ under a widget position (the probe tool's pick).
   bool pick_at(const QPoint& pos, Vec3& rest_point, Vec3& rest_normal, Vec3& drawn_point) const;
-  bool mouse_press(QMouseEvent* e);
-  bool mouse_move(QMouseEvent* e);
-  bool mouse_release(QMouseEvent* e);
-  bool wheel(QWheelEvent* e);
   // Authoring (main_window_authoring.cpp).
   void build_authoring_ui(QMenu* file, QAction* before, QMenu* edit);
   vtkRenderer* inclusions_renderer() const;
@@ -337,35 +331,13 @@ class MainWindow : public QMainWindow {
   QLabel* error_banner_ = nullptr;
   QLabel* facts_ = nullptr;
   QComboBox* unit_box_ = nullptr;
-  QListWidget* probe_list_ = nullptr;
-  QLabel* force_label_ = nullptr;
-  QLabel* depth_label_ = nullptr;
-  QLabel* device_label_ = nullptr;
-  QLabel* warnings_label_ = nullptr;
-  QPushButton* reenable_button_ = nullptr;
-  ForcePlot* plot_ = nullptr;
+  ProbePanel* probe_panel_ = nullptr;
+  ReadoutsPanel* readouts_panel_ = nullptr;
+  ForcePlot* plot_ = nullptr;  // the readouts panel's
   QDockWidget* task_dock_ = nullptr;
   QLabel* task_text_ = nullptr;
-  QLabel* scenario_note_ = nullptr;
-  QPushButton* restore_map_ = nullptr;
+  MaterialPanel* material_panel_ = nullptr;
   QAction* undo_material_ = nullptr;
-  QComboBox* preset_box_ = nullptr;
-  QDoubleSpinBox* youngs_kpa_ = nullptr;
-  QDoubleSpinBox* poisson_ = nullptr;
-  QDoubleSpinBox* damping_ratio_ = nullptr;
-  QDoubleSpinBox* relaxation_s_ = nullptr;
-  QDoubleSpinBox* relaxation_fraction_ = nullptr;
-  QDoubleSpinBox* stiffening_mm_ = nullptr;
-  QDoubleSpinBox* tip_radius_mm_ = nullptr;
-  QGroupBox* linear_group_ = nullptr;
-  QComboBox* model_box_ = nullptr;
-  QComboBox* shape_box_ = nullptr;
-  QDoubleSpinBox* stiffness_ = nullptr;
-  QDoubleSpinBox* damping_ = nullptr;
-  QDoubleSpinBox* mass_g_ = nullptr;
-  QDoubleSpinBox* radius_mm_ = nullptr;
-  QDoubleSpinBox* friction_ = nullptr;
-  QDoubleSpinBox* max_force_ = nullptr;
   QMenu* recent_menu_ = nullptr;
   QAction* hold_action_ = nullptr;
   QAction* force_arrows_action_ = nullptr;
@@ -387,10 +359,8 @@ class MainWindow : public QMainWindow {
   std::vector<std::unique_ptr<render::ProbeView>> replay_probe_views_;
   std::vector<std::unique_ptr<render::EllipsoidView>> replay_lesion_views_;
 
-  // Gesture state: pressing with a probe, where the press started.
-  bool indenting_ = false;
-  QPoint press_pos_;
-  double press_depth_ = 0;   // m, from the wheel while pressed
+  // The mouse probe's gestures on the viewport.
+  ProbeTool* probe_tool_ = nullptr;
   bool loading_settings_ = true;  // no saving while the window is being built
 
   // Whether the view must take every vertex next, and whether it is at rest.

@@ -6,6 +6,7 @@
 #include "app/gui/authoring_panel.h"
 #include "app/gui/authoring_tools.h"
 #include "app/gui/main_window.h"
+#include "app/gui/material_panel.h"
 #include "app/gui/scenario_document.h"
 #include "render/probe_view.h"
 #include "render/surface_view.h"
@@ -262,7 +263,7 @@ bool MainWindow::new_scenario() {
   s.organ.resolved = organ_file_ == "default" ? mesh::default_organ_path() : std::filesystem::path(s.organ.path);
   s.organ.unit = organ_unit_.toStdString();
   // The base tissue: the material panel's preset when it shows one, else liver (or the first preset).
-  std::string key = preset_box_->currentData().toString().toStdString();
+  std::string key = material_panel_->preset_key();
   try {
     if (key.empty() || !tissue::find_preset(key)) key = tissue::find_preset("liver") ? "liver" : tissue::presets().at(0).key;
     s.base_tissue = ensure_preset_tissue(s, key);
