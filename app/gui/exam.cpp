@@ -2,6 +2,8 @@
 
 #include "app/gui/exam.h"
 
+#include "assess/assess.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -12,7 +14,7 @@ double lesion_diameter(const tissue::Lesion& l) {
 }
 
 ExamResult score_exam(const std::vector<ExamMark>& marks, const std::vector<tissue::Lesion>& lesions,
-                      double tolerance) {
+                      double tolerance, const mesh::SurfaceMesh* organ) {
   ExamResult r;
   r.marks.resize(marks.size());
   r.lesion_mark.assign(lesions.size(), -1);
@@ -21,9 +23,11 @@ ExamResult score_exam(const std::vector<ExamMark>& marks, const std::vector<tiss
     std::size_t mark, lesion;
   };
   std::vector<Pair> pairs;
+  std::vector<Vec3> above;
+  for (const auto& l : lesions) above.push_back(organ ? assess::surface_point_above(*organ, l) : l.centre);
   for (std::size_t i = 0; i < marks.size(); ++i)
     for (std::size_t k = 0; k < lesions.size(); ++k) {
-      const double d = (marks[i].point - lesions[k].centre).norm();
+      const double d = assess::mark_distance(marks[i].point, lesions[k], above[k]);
       if (d <= tolerance) pairs.push_back({d, i, k});
     }
   std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.d < b.d; });

@@ -6,6 +6,7 @@
 // unmatched lesion is missed. SI units.
 
 #include "core/types.h"
+#include "mesh/surface_mesh.h"
 #include "tissue/lesion.h"
 
 #include <string>
@@ -36,8 +37,12 @@ struct ExamResult {
 /// A lesion's diameter as palpa-assess reports it: 2 (a b c)^(1/3), m.
 double lesion_diameter(const tissue::Lesion& l);
 
-/// Matches `marks` to `lesions` within `tolerance` (m).
+/// Matches `marks` to `lesions` within `tolerance` (m), one to one, the
+/// closest pairs first, by assess::mark_distance: a mark counts from the
+/// lesion's centre or from the surface point above it on `organ` (a mark is
+/// made on the surface; null organ: from the centre only), as palpa-assess
+/// scores the session.
 ExamResult score_exam(const std::vector<ExamMark>& marks, const std::vector<tissue::Lesion>& lesions,
-                      double tolerance);
+                      double tolerance, const mesh::SurfaceMesh* organ = nullptr);
 
 }  // namespace palpa::app

@@ -534,7 +534,7 @@ void MainWindow::finish_exam() {
   if (!sc) return;
   for (QDialog* d : findChildren<QDialog*>("markDialog")) d->close();
   const double tolerance = sc->scenario.task.scoring.position_tolerance;
-  const ExamResult result = score_exam(exam_panel_->marks(), sc->lesions, tolerance);
+  const ExamResult result = score_exam(exam_panel_->marks(), sc->lesions, tolerance, sc->organ.mesh.get());
   exam_panel_->show_result(result, sc->lesions, tolerance);
   workbench_.record_event(record::EventRecord::make(
       record::EventKind::Note, 0, 0,

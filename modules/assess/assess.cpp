@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <limits>
 #include <sstream>
 
 namespace palpa::assess {
@@ -202,9 +203,11 @@ Report Assessor::finish(const std::vector<record::EventRecord>& events) {
     std::size_t mark, lesion;
   };
   std::vector<Pair> pairs;
+  std::vector<Vec3> above;
+  for (const auto& l : m.lesions) above.push_back(surface_point_above(m.coverage.mesh(), l));
   for (std::size_t i = 0; i < r.marks.size(); ++i)
     for (std::size_t k = 0; k < r.lesions.size(); ++k) {
-      const double d = (r.marks[i].point - r.lesions[k].centre).norm();
+      const double d = mark_distance(r.marks[i].point, m.lesions[k], above[k]);
       if (d <= m.task.position_tolerance) pairs.push_back({d, i, k});
     }
   std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.d < b.d; });
@@ -309,6 +312,23 @@ std::string base64(const std::vector<std::uint8_t>& b) {
 }
 
 }  // namespace
+
+Vec3 surface_point_above(const mesh::SurfaceMesh& mesh, const tissue::Lesion& lesion) {
+  Index best = 0;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (Index v = 0; v < mesh.vertex_count(); ++v) {
+    const double d = (mesh.positions[v] - lesion.centre).squaredNorm();
+    if (d < best_d) {
+      best_d = d;
+      best = v;
+    }
+  }
+  return mesh.vertex_count() > 0 ? mesh.positions[best] : lesion.centre;
+}
+
+double mark_distance(const Vec3& mark, const tissue::Lesion& lesion, const Vec3& surface_point) {
+  return std::min((mark - lesion.centre).norm(), (mark - surface_point).norm());
+}
 
 std::string to_json(const Report& r) {
   std::ostringstream j;

@@ -22,7 +22,7 @@ namespace palpa::assess {
 struct Task {
   double force_limit = 0;            ///< N (0: none)
   double time_limit = 0;             ///< s (0: none)
-  double position_tolerance = 0.01;  ///< m: a mark within this of a lesion centre finds it
+  double position_tolerance = 0.01;  ///< m: a mark within this of a lesion (mark_distance) finds it
   double size_tolerance = 0.5;       ///< fraction of the true diameter
   double pass_score = 0.7;           ///< 0..1
   double weight_found = 0.5, weight_size = 0.15, weight_consistency = 0.1, weight_force = 0.15, weight_coverage = 0.1;
@@ -42,7 +42,7 @@ struct LesionResult {
   double diameter = 0;             ///< m, 2 (a_x a_y a_z)^(1/3)
   bool found = false;
   int mark = -1;                   ///< index into marks when found
-  double localisation_error = 0;   ///< m, mark to centre
+  double localisation_error = 0;   ///< m, mark_distance: to the centre or the surface point above it
   double size_error = 0;           ///< |reported - true| / true diameter
   double time_to_detection = 0;    ///< s after the first tick
   double max_contrast = 0;         ///< largest force contrast the probe reached over it
@@ -118,6 +118,15 @@ class Assessor {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+/// The surface point above a lesion: the vertex of `mesh` nearest its
+/// centre (organ frame, m). Brute force, O(vertices).
+Vec3 surface_point_above(const mesh::SurfaceMesh& mesh, const tissue::Lesion& lesion);
+/// How far a mark misses a lesion, m: the smaller of its distances to the
+/// lesion's centre and to `surface_point` (surface_point_above). A trainee
+/// palpates from the surface and marks there, so a mark straight above a
+/// buried lesion is on it whatever the lesion's depth.
+double mark_distance(const Vec3& mark, const tissue::Lesion& lesion, const Vec3& surface_point);
 
 /// The report as JSON (2-space indented, SI units in the key names).
 std::string to_json(const Report& r);

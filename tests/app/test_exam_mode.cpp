@@ -237,8 +237,10 @@ TEST_F(ExamModeTest, MarksAreMadeListedDeletedAndClassifiedAtFinish) {
   ASSERT_TRUE(panel->finished());
   const ExamResult& r = panel->result();
   ASSERT_EQ(r.marks.size(), 3u);
-  // The surface point over nodule A is within the tolerance of its centre or not,
-  // by the scenario's depth; nodule B's mark is found, the far one is a false positive.
+  // The mark made with key M at the contact point over nodule A is on it (a
+  // mark counts from the surface point above a buried lesion, whatever its
+  // depth); nodule B's mark is found, the far one is a false positive.
+  EXPECT_EQ(r.marks[0].lesion, 0) << "a mark on the surface right above nodule A";
   EXPECT_EQ(r.marks[1].lesion, 1);
   EXPECT_NEAR(r.marks[1].distance, 0.002, 1e-9);
   EXPECT_NEAR(r.marks[1].size_error, 0.010 - lesion_diameter(lesions[1]), 1e-9);

@@ -155,6 +155,31 @@ TEST(Assess, AMarkAwayFromEveryLesionIsAFalsePositive) {
   EXPECT_EQ(r.marks[0].lesion, -1);
 }
 
+// A trainee marks on the surface: a mark straight above a lesion 15 mm
+// deep (beyond the 10 mm tolerance from its centre) is on it, with no
+// localisation error (the plane's vertex above the centre is the mark);
+// 12 mm to the side of that point it is a false positive.
+TEST(Assess, AMarkOnTheSurfaceAboveADeepLesionFindsIt) {
+  tissue::Lesion deep = lesion();
+  deep.centre = Vec3(0.010, 0.010, -0.015);
+  std::vector<Step> s(100, Step{Vec3(0, 0, 0), 0.002});
+  auto above = record::EventRecord::make(record::EventKind::Mark, 50, 0.05);
+  above.point = {0.010, 0.010, 0.0};
+  Report r = run(plane(), s, {deep}, Task{}, {above});
+  ASSERT_GT(Task{}.position_tolerance, 0.0);
+  ASSERT_LT(Task{}.position_tolerance, 0.015) << "the test needs a lesion deeper than the tolerance";
+  EXPECT_TRUE(r.lesions[0].found);
+  EXPECT_EQ(r.false_positives, 0u);
+  EXPECT_NEAR(r.lesions[0].localisation_error, 0.0, 1e-12);
+  auto aside = above;
+  aside.point = {0.010, 0.022, 0.0};
+  r = run(plane(), s, {deep}, Task{}, {aside});
+  EXPECT_FALSE(r.lesions[0].found);
+  EXPECT_EQ(r.false_positives, 1u);
+  // The surface point is the vertex nearest the centre (brute force).
+  EXPECT_TRUE(surface_point_above(*plane(), deep).isApprox(Vec3(0.010, 0.010, 0.0), 1e-12));
+}
+
 TEST(Assess, TimeOverTheForceLimit) {
   std::vector<Step> s(1000, Step{Vec3(0, 0, 0), 0.002, 2.0});
   for (int n = 200; n < 300; ++n) s[n].force = 10.0;
