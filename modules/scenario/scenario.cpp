@@ -1253,6 +1253,12 @@ std::string prep_spec_error(const PrepSpec& p) {
   return {};
 }
 
+PrepSpec as_written(const PrepSpec& p) {
+  PrepSpec out = p;
+  for (const PrepRule& rule : kPrepRules) set_prep_value(out, rule.key, num(prep_value(p, rule.key)).get<double>());
+  return out;
+}
+
 std::string summary(const Scenario& s) {
   std::ostringstream o;
   o << (s.title.empty() ? s.file.filename().string() : s.title) << " (scenario version " << s.version << ")\n";

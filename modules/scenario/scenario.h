@@ -67,6 +67,10 @@ inline constexpr double kMaxPrepProbeRadius = 0.1;    ///< 100 mm
 /// (e.g. "edge_mm: expected a length from 0.1 to 100 millimetres, got 0");
 /// empty when it is good. The reader gives the same message under /organ/prep.
 std::string prep_spec_error(const PrepSpec& p);
+/// The values as a file holds them (file units, 12 significant digits, read
+/// back to SI): what a scenario saved and loaded again has, so the same
+/// spec before and after saving prepares (and caches) the same mesh.
+PrepSpec as_written(const PrepSpec& p);
 
 struct OrganRef {
   std::string path;                 ///< as written, relative to the scenario file ("default" = the bundled organ)

@@ -136,6 +136,19 @@ TEST(ScenarioPrep, TheSpecCheckGivesTheReadersMessages) {
   EXPECT_EQ(prep_spec_error(p), "fit_rounds: expected an integer from 0 to 10, got 11");
 }
 
+TEST(ScenarioPrep, AsWrittenIsWhatALoadedFileHolds) {
+  PrepSpec p;
+  p.edge = 2.3456789012345678 * 1e-3;
+  p.fit_factor = 0.1 + 0.2;
+  Json doc = valid_scenario();
+  Scenario s = parse_scenario(doc.dump(), "case.json");
+  s.organ.prep = p;
+  const Scenario back = parse_scenario(to_json_text(s), "case.json");
+  ASSERT_TRUE(back.organ.prep.has_value());
+  EXPECT_EQ(*back.organ.prep, as_written(p));
+  EXPECT_EQ(as_written(as_written(p)), as_written(p));
+}
+
 #if PALPA_TEST_HAVE_PREP
 // The scenario's defaults are prep's: a file that leaves a key out prepares
 // what palpa-prep does with the same edge.
