@@ -37,7 +37,7 @@ double largest_axis(const tissue::Lesion& l) { return l.semi_axes.maxCoeff(); }
 void apply_to_workbench(Workbench& workbench, const scenario::Scenario& s) {
   const scenario::Resolved* running = workbench.scenario();
   const bool same_organ = running && running->scenario.organ.resolved == s.organ.resolved &&
-                          running->scenario.organ.unit == s.organ.unit;
+                          running->scenario.organ.unit == s.organ.unit && running->scenario.organ.prep == s.organ.prep;
   if (same_organ)
     workbench.edit_scenario(s);  // a command to the running loop: probes, dent and recording go on
   else

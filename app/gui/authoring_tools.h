@@ -43,7 +43,8 @@ namespace palpa::app {
 /// Runs an edited scenario on the workbench. On the organ of the running
 /// scenario it is Workbench::edit_scenario: one command to the running loop
 /// (probes, dent, tick count and any recording go on). A first scenario on
-/// a bare organ, or one on another organ file or unit, is resolved and run
+/// a bare organ, or one on another organ file, unit or preparation
+/// (organ.prep: the mesh from prep's cache), is resolved and run
 /// with Workbench::set_scenario (a new loop). Throws (nothing changed)
 /// scenario::ScenarioError for a scenario that does not resolve.
 void apply_to_workbench(Workbench& workbench, const scenario::Scenario& s);

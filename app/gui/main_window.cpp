@@ -1,6 +1,7 @@
 // The workbench window.
 
 #include "app/gui/main_window.h"
+#include "app/gui/prep_action.h"
 
 #include "app/gui/authoring_tools.h"
 #include "app/gui/device_dialog.h"
@@ -285,6 +286,8 @@ void MainWindow::build_menus() {
   });
   open->setToolTip("Open an organ mesh (OBJ, STL, PLY, OFF, VTK, VTP, TRIAN) or a scenario file (.json)");
   file->addAction("Open &default organ", this, &MainWindow::open_default_organ);
+  prep_action_ = new PrepAction(this);
+  file->addAction(prep_action_->action());
   recent_menu_ = file->addMenu("Open &recent");
   file->addSeparator();
   QAction* shot = file->addAction("&Screenshot...", this, [this] {
@@ -480,6 +483,7 @@ void MainWindow::install_organ(mesh::Organ organ) {
   auto view = std::make_unique<render::SurfaceView>(organ.mesh);
   leave_replay();
   workbench_.set_organ(std::move(organ));  // all or nothing
+  organ_prep_.reset();
   show_new_organ(std::move(view));
 }
 
@@ -487,12 +491,40 @@ void MainWindow::install_scenario(scenario::Resolved resolved) {
   auto view = std::make_unique<render::SurfaceView>(resolved.organ.mesh);
   leave_replay();
   workbench_.set_scenario(std::move(resolved));  // all or nothing
+  organ_prep_.reset();
   show_new_organ(std::move(view));
+}
+
+scenario::OrganRef MainWindow::organ_ref() const {
+  if (const scenario::Resolved* sc = workbench_.scenario()) return sc->scenario.organ;
+  scenario::OrganRef r;
+  r.path = organ_file_.toStdString();
+  r.resolved = organ_file_ == "default" ? mesh::default_organ_path() : std::filesystem::path(r.path);
+  r.unit = organ_unit_.toStdString();
+  r.prep = organ_prep_;
+  return r;
+}
+
+// A prepared organ: a scenario's organ.prep edited (undoable; saving records
+// it), or a bare organ replaced (New scenario then records its preparation).
+QString MainWindow::install_prepared_organ(mesh::Organ organ, const scenario::OrganRef& ref) {
+  if (workbench_.has_scenario()) {
+    if (!document_->has_scenario()) return "the running scenario is not in the authoring document";
+    return document_->edit("Prepare organ", [&](scenario::Scenario& s) { s.organ.prep = ref.prep; });
+  }
+  try {
+    install_organ(std::move(organ));
+  } catch (const std::exception& e) {
+    return QString::fromStdString(e.what());
+  }
+  organ_prep_ = ref.prep;
+  clear_error();
+  return {};
 }
 
 // The window after the workbench took a new organ or scenario: the view,
 // the shown lesions, the probes' glyphs, the facts, the task, the panel.
-void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
+void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view, bool reset_document) {
   if (view_) vtk_->renderer->RemoveActor(view_->actor());
   view_ = std::move(view);
   vtk_->renderer->AddActor(view_->actor());
@@ -538,7 +570,7 @@ void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view) {
 
   sync_session_actions();  // a new organ ended any recording of the old loop
 
-  authoring_after_new_organ();  // the authored document follows what runs
+  if (reset_document) authoring_after_new_organ();  // the authored document follows what runs
 
   // Camera on the whole organ.
   render::frame_camera(vtk_->renderer, view_->bounds(), Vec3(0.3, -1.0, 0.8), Vec3::UnitZ());

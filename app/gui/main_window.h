@@ -23,6 +23,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <vector>
 
 class QAction;
@@ -50,6 +51,7 @@ namespace palpa::app {
 
 class DiagnosticsPanel;
 class ExamPanel;
+class PrepAction;
 class AuthoringPanel;
 class AuthoringTools;
 class ForcePlot;
@@ -100,6 +102,18 @@ class MainWindow : public QMainWindow {
   std::size_t lesions_drawn() const;
   /// Opens the bundled default organ.
   void open_default_organ();
+  /// File > Prepare organ... (prep_action.h).
+  PrepAction* prep_action() const { return prep_action_; }
+  /// The organ shown as a scenario's organ reference: the running
+  /// scenario's, else the bare organ's file ("default": the bundled one),
+  /// unit and preparation (set when it was prepared).
+  scenario::OrganRef organ_ref() const;
+  /// Runs a prepared organ made from organ_ref() with ref.prep: on a running
+  /// scenario, an undoable edit of its organ.prep through the authoring
+  /// document (the scenario is resolved again; its mesh comes from prep's
+  /// cache); on a bare organ, the organ installed as a new one. Returns the
+  /// error (nothing changed), empty on success.
+  QString install_prepared_organ(mesh::Organ organ, const scenario::OrganRef& ref);
   /// Writes the viewport to a PNG; on failure shows the error.
   bool save_screenshot(const QString& path);
   /// Surface to rest, every probe lifted.
@@ -294,7 +308,9 @@ class MainWindow : public QMainWindow {
   void clear_error();
   void install_organ(mesh::Organ organ);
   void install_scenario(scenario::Resolved resolved);
-  void show_new_organ(std::unique_ptr<render::SurfaceView> view);
+  // reset_document false: an edit of the authored scenario brought a new
+  // mesh (its organ's preparation), the document and its history stay.
+  void show_new_organ(std::unique_ptr<render::SurfaceView> view, bool reset_document = true);
   void show_task();
   void apply_frame_transform();
   void rebuild_lesion_views();
@@ -412,6 +428,9 @@ class MainWindow : public QMainWindow {
   QAction* author_action_ = nullptr;
   SavePrompt save_prompt_;
   QString organ_file_ = "default";  // the organ shown: its file ("default": the bundled one) and unit
+  std::optional<scenario::PrepSpec> organ_prep_;  // the bare organ's preparation (none: as loaded)
+  PrepAction* prep_action_ = nullptr;
+  friend class PrepAction;  // its messages go through show_error
   QString organ_unit_ = "m";  // s: the loop's figures are shown twice a second (each change repaints the window)
 };
 

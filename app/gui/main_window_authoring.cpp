@@ -219,7 +219,13 @@ void MainWindow::authoring_after_new_organ() {
 // then the window shows it (lesions, task, title, panels).
 void MainWindow::apply_document(const scenario::Scenario& s) {
   if (in_replay()) throw std::logic_error("leave the replay first (Session > Back to live)");
+  const std::shared_ptr<const mesh::SurfaceMesh> before = workbench_.organ().mesh;
   apply_to_workbench(workbench_, s);
+  // Another mesh (the organ's preparation changed, or undone): a new view of it.
+  const auto& after = workbench_.organ().mesh;
+  if (before && after && after != before &&
+      (after->positions != before->positions || after->triangles != before->triangles))
+    show_new_organ(std::make_unique<render::SurfaceView>(after), /*reset_document=*/false);
   clear_error();
   need_full_sync_ = true;
   pull_surface();
@@ -262,6 +268,7 @@ bool MainWindow::new_scenario() {
   s.organ.path = organ_file_.toStdString();
   s.organ.resolved = organ_file_ == "default" ? mesh::default_organ_path() : std::filesystem::path(s.organ.path);
   s.organ.unit = organ_unit_.toStdString();
+  s.organ.prep = organ_prep_;  // a prepared bare organ: the scenario prepares it the same way
   // The base tissue: the material panel's preset when it shows one, else liver (or the first preset).
   std::string key = material_panel_->preset_key();
   try {

@@ -3,9 +3,13 @@
 #include "scenario/resolve.h"
 
 #include "collision/vertex_tree.h"
+#if PALPA_HAVE_PREP
+#include "prep/prep.h"
+#endif
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace palpa::scenario {
 
@@ -94,16 +98,93 @@ std::vector<tissue::Lesion> place_lesions(const Scenario& s, const mesh::Surface
   return out;
 }
 
-Resolved resolve(const Scenario& s) {
-  mesh::Organ organ;
-  if (s.organ.path == "default" || s.organ.path.empty()) {
-    organ = mesh::load_default_organ();
-  } else {
-    organ = mesh::load_organ(s.organ.resolved.empty() ? std::filesystem::path(s.organ.path) : s.organ.resolved,
-                             mesh::parse_mesh_unit(s.organ.unit));
-  }
-  return resolve_on(s, std::move(organ));
+std::string PrepSummary::text() const {
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "prepared%s: %zu -> %zu triangles (%zu -> %zu vertices), %s, edge %.3g mm (mean %.3g mm, CV %.3f), "
+                "Hausdorff %.3g mm, volume %+.2f%%",
+                from_cache ? " (from the cache)" : "", triangles_before, triangles_after, vertices_before,
+                vertices_after, closed ? "closed" : "NOT closed", edge_target * 1e3, edge_mean * 1e3, edge_cv,
+                hausdorff * 1e3, volume_change * 100);
+  std::string out = buf;
+  for (const std::string& u : unmet) out += "; target missed: " + u;
+  return out;
 }
+
+mesh::Organ load_scenario_organ(const OrganRef& ref, const std::string& file, const PrepHooks& hooks,
+                                PrepSummary* summary) {
+  const bool bundled = ref.path == "default" || ref.path.empty();
+  const std::filesystem::path path =
+      bundled ? mesh::default_organ_path() : (ref.resolved.empty() ? std::filesystem::path(ref.path) : ref.resolved);
+  if (!ref.prep) return bundled ? mesh::load_default_organ() : mesh::load_organ(path, mesh::parse_mesh_unit(ref.unit));
+
+  const PrepSpec& spec = *ref.prep;
+  if (const std::string error = prep_spec_error(spec); !error.empty()) throw ScenarioError(file, "/organ/prep", error);
+#if !PALPA_HAVE_PREP
+  (void)hooks;
+  (void)summary;
+  throw ScenarioError(file, "/organ/prep", "this build has no mesh preparation (palpa-prep needs CGAL)");
+#else
+  prep::PrepOptions o;
+  o.unit_m = bundled ? 1.0 : mesh::unit_metres(mesh::parse_mesh_unit(ref.unit));
+  o.edge_m = spec.edge;
+  o.probe_radius_m = spec.edge > 0 ? prep::kDefaultProbeRadius : spec.probe_radius;
+  o.speck_area_fraction = spec.speck_area_fraction;
+  o.max_hole_area_fraction = spec.max_hole_area_fraction;
+  o.allow_autorefine = spec.autorefine;
+  o.allow_local_repair = spec.local_repair;
+  o.remesh_iterations = spec.remesh_iterations;
+  o.relaxation_steps = spec.relaxation_steps;
+  o.feature_angle_deg = spec.feature_angle_deg;
+  o.refine_rounds = spec.refine_rounds;
+  o.fit_rounds = spec.fit_rounds;
+  o.fit_factor = spec.fit_factor;
+  o.fit_max_triangles = static_cast<std::size_t>(spec.fit_max_triangles);
+  o.progress = hooks.progress;
+  o.cancel = hooks.cancel;
+
+  mesh::Organ organ;
+  organ.name = bundled ? std::string("default organ") : path.filename().string();
+  organ.unit_m = o.unit_m;
+  prep::PrepReport report;
+  mesh::SurfaceMesh m;
+  try {
+    if (bundled && !std::filesystem::exists(path)) {
+      // The bundled file is missing: prepare the generated organ (not cached: there are no bytes to key it by).
+      const mesh::Organ raw = mesh::load_default_organ();
+      m = prep::prepare(*raw.mesh, o, &report, raw.name);
+    } else {
+      m = prep::prepare_cached(path, o, &report, hooks.cache_dir.empty() ? prep::default_cache_dir() : hooks.cache_dir);
+    }
+  } catch (const prep::PrepCancelled& e) {
+    throw PrepCancelled(e.what());
+  } catch (const prep::PrepError& e) {
+    throw ScenarioError(file, "/organ/prep", e.what());
+  }
+  PrepSummary sum;
+  sum.vertices_before = report.before.vertices;
+  sum.triangles_before = report.before.triangles;
+  sum.vertices_after = m.vertex_count();
+  sum.triangles_after = m.triangle_count();
+  sum.closed = report.after.closed && report.after.manifold && report.after.outward;
+  sum.edge_target = report.edge_target_m;
+  sum.edge_mean = report.after.edge_mean_m;
+  sum.edge_cv = report.after.edge_cv;
+  sum.hausdorff = report.hausdorff_m;
+  sum.volume_change = report.volume_change;
+  sum.seconds = report.seconds;
+  sum.from_cache = report.from_cache;
+  sum.unmet = prep::unmet_targets(report);
+  sum.warnings = report.warnings;
+  organ.facts = mesh::analyse(m);
+  organ.note = sum.text();
+  organ.mesh = std::make_shared<const mesh::SurfaceMesh>(std::move(m));
+  if (summary) *summary = std::move(sum);
+  return organ;
+#endif
+}
+
+Resolved resolve(const Scenario& s) { return resolve_on(s, load_scenario_organ(s.organ, file_of(s))); }
 
 Resolved resolve_on(const Scenario& s, mesh::Organ organ) {
   const std::string file = file_of(s);

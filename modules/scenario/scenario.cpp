@@ -25,6 +25,7 @@
 #include <initializer_list>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 namespace palpa::scenario {
 
@@ -253,8 +254,88 @@ const std::string kMmUnit = " of millimetres";
 // ---------------------------------------------------------------------------
 // Sections of the file, read in the order they are written.
 
+// The organ's "prep" object: one rule per number (file units: mm, degrees,
+// fractions, counts), shared by the reader and prep_spec_error().
+struct PrepRule {
+  const char* key;
+  const char* what;
+  double lo, hi;
+  bool lo_open, hi_open, integer;
+};
+constexpr PrepRule kPrepRules[] = {
+    {"edge_mm", "a length from 0.1 to 100 millimetres", kMinPrepEdge * 1e3, kMaxPrepEdge * 1e3, false, false, false},
+    {"probe_radius_mm", "a positive length up to 100 millimetres", 0, kMaxPrepProbeRadius * 1e3, true, false, false},
+    {"speck_area_fraction", "a fraction in [0, 1)", 0, 1, false, true, false},
+    {"max_hole_area_fraction", "a fraction in (0, 1]", 0, 1, true, false, false},
+    {"remesh_iterations", "an integer from 1 to 50", 1, 50, false, false, true},
+    {"relaxation_steps", "an integer from 0 to 50", 0, 50, false, false, true},
+    {"feature_angle_deg", "an angle in [0, 180) degrees (0: no creases)", 0, 180, false, true, false},
+    {"refine_rounds", "an integer from 0 to 10", 0, 10, false, false, true},
+    {"fit_rounds", "an integer from 0 to 10", 0, 10, false, false, true},
+    {"fit_factor", "a factor in (0, 1)", 0, 1, true, true, false},
+    {"fit_max_triangles", "an integer from 1000 to 5000000", 1000, 5e6, false, false, true},
+};
+
+bool prep_ok(const PrepRule& rule, double x) {
+  if (!std::isfinite(x) || (rule.integer && x != std::floor(x))) return false;
+  return (rule.lo_open ? x > rule.lo : x >= rule.lo) && (rule.hi_open ? x < rule.hi : x <= rule.hi);
+}
+
+// A PrepSpec's value of a rule's key, in file units.
+double prep_value(const PrepSpec& p, std::string_view key) {
+  if (key == "edge_mm") return p.edge * 1e3;
+  if (key == "probe_radius_mm") return p.probe_radius * 1e3;
+  if (key == "speck_area_fraction") return p.speck_area_fraction;
+  if (key == "max_hole_area_fraction") return p.max_hole_area_fraction;
+  if (key == "remesh_iterations") return p.remesh_iterations;
+  if (key == "relaxation_steps") return p.relaxation_steps;
+  if (key == "feature_angle_deg") return p.feature_angle_deg;
+  if (key == "refine_rounds") return p.refine_rounds;
+  if (key == "fit_rounds") return p.fit_rounds;
+  if (key == "fit_factor") return p.fit_factor;
+  return static_cast<double>(p.fit_max_triangles);  // fit_max_triangles
+}
+
+void set_prep_value(PrepSpec& p, std::string_view key, double x) {
+  if (key == "edge_mm") p.edge = x * 1e-3;
+  else if (key == "probe_radius_mm") p.probe_radius = x * 1e-3;
+  else if (key == "speck_area_fraction") p.speck_area_fraction = x;
+  else if (key == "max_hole_area_fraction") p.max_hole_area_fraction = x;
+  else if (key == "remesh_iterations") p.remesh_iterations = static_cast<int>(x);
+  else if (key == "relaxation_steps") p.relaxation_steps = static_cast<int>(x);
+  else if (key == "feature_angle_deg") p.feature_angle_deg = x;
+  else if (key == "refine_rounds") p.refine_rounds = static_cast<int>(x);
+  else if (key == "fit_rounds") p.fit_rounds = static_cast<int>(x);
+  else if (key == "fit_factor") p.fit_factor = x;
+  else p.fit_max_triangles = static_cast<std::uint64_t>(x);
+}
+
+const char* const kPrepLengthChoice = "missing required key \"edge_mm\" (or \"probe_radius_mm\")";
+const char* const kPrepLengthBoth = "expected \"edge_mm\" or \"probe_radius_mm\", not both";
+
+PrepSpec read_prep(const Reader& r, const Json& v, const std::string& ptr) {
+  r.object(v, ptr,
+           {"edge_mm", "probe_radius_mm", "speck_area_fraction", "max_hole_area_fraction", "autorefine", "local_repair",
+            "remesh_iterations", "relaxation_steps", "feature_angle_deg", "refine_rounds", "fit_rounds", "fit_factor",
+            "fit_max_triangles"});
+  const bool edge = r.find(v, "edge_mm") != nullptr, probe = r.find(v, "probe_radius_mm") != nullptr;
+  if (!edge && !probe) r.fail(ptr, kPrepLengthChoice);
+  if (edge && probe) r.fail(ptr, kPrepLengthBoth);
+  PrepSpec p;
+  for (const PrepRule& rule : kPrepRules) {
+    const Json* x = r.find(v, rule.key);
+    if (!x) continue;
+    const std::string kp = child(ptr, rule.key);
+    if (rule.integer && !x->is_number_integer()) r.expected(kp, rule.what, *x);
+    set_prep_value(p, rule.key, r.number(*x, kp, rule.what, [&](double n) { return prep_ok(rule, n); }));
+  }
+  if (const Json* x = r.find(v, "autorefine")) p.autorefine = r.boolean(*x, child(ptr, "autorefine"));
+  if (const Json* x = r.find(v, "local_repair")) p.local_repair = r.boolean(*x, child(ptr, "local_repair"));
+  return p;
+}
+
 OrganRef read_organ(const Reader& r, const Json& v, const std::string& ptr) {
-  r.object(v, ptr, {"path", "unit", "sha256"});
+  r.object(v, ptr, {"path", "unit", "sha256", "prep"});
   OrganRef o;
   const std::string pp = child(ptr, "path");
   o.path = r.string(r.need(v, ptr, "path"), pp, "a file path (relative to the scenario file) or \"default\"");
@@ -279,6 +360,7 @@ OrganRef read_organ(const Reader& r, const Json& v, const std::string& ptr) {
     if (actual.empty()) r.fail(hp, "cannot read " + o.resolved.string() + " to check it: " + error);
     if (actual != s) r.fail(hp, "expected " + s + " (the SHA-256 given), got " + actual + " for " + o.resolved.string());
   }
+  if (const Json* p = r.find(v, "prep")) o.prep = read_prep(r, *p, child(ptr, "prep"));
   return o;
 }
 
@@ -690,6 +772,22 @@ Json num(double v) {
   if (r == std::floor(r) && std::abs(r) < 1e15) return Json(static_cast<std::int64_t>(r));
   return Json(r);
 }
+// The prep object: the edge or the probe radius, then every other
+// parameter (all of them, so the file alone says how its mesh was made).
+Json prep_json(const PrepSpec& p) {
+  Json o;
+  for (const PrepRule& rule : kPrepRules) {
+    const std::string_view key = rule.key;
+    if ((key == "edge_mm" && p.edge <= 0) || (key == "probe_radius_mm" && (p.edge > 0 || p.probe_radius <= 0))) continue;
+    o[rule.key] = num(prep_value(p, key));
+    if (key == "max_hole_area_fraction") {  // the booleans after the repair limits
+      o["autorefine"] = p.autorefine;
+      o["local_repair"] = p.local_repair;
+    }
+  }
+  return o;
+}
+
 Json vec(const Vec3& v, double per_unit) {
   return Json::array({num(v.x() / per_unit), num(v.y() / per_unit), num(v.z() / per_unit)});
 }
@@ -1055,6 +1153,7 @@ std::string to_json_text(const Scenario& s, const fs::path& base_dir) {
   organ["path"] = s.organ.path == "default" ? std::string("default") : rel_path(s.organ.resolved, s.organ.path, base_dir);
   organ["unit"] = s.organ.unit;
   if (!s.organ.sha256.empty()) organ["sha256"] = s.organ.sha256;
+  if (s.organ.prep) organ["prep"] = prep_json(*s.organ.prep);
   o["organ"] = organ;
   Json probe;
   probe["tip_radius_mm"] = num(s.probe.tip_radius / kMm);
@@ -1142,12 +1241,36 @@ void save_scenario(const Scenario& s, const fs::path& file) {
   }
 }
 
+std::string prep_spec_error(const PrepSpec& p) {
+  if (p.edge > 0 && p.probe_radius > 0) return kPrepLengthBoth;
+  if (p.edge == 0 && p.probe_radius == 0) return kPrepLengthChoice;
+  for (const PrepRule& rule : kPrepRules) {
+    const std::string_view key = rule.key;
+    if ((key == "edge_mm" && p.edge == 0) || (key == "probe_radius_mm" && p.probe_radius == 0)) continue;
+    const double x = prep_value(p, key);
+    if (!prep_ok(rule, x)) return std::string(rule.key) + ": expected " + rule.what + ", got " + shown(num(x));
+  }
+  return {};
+}
+
+PrepSpec as_written(const PrepSpec& p) {
+  PrepSpec out = p;
+  for (const PrepRule& rule : kPrepRules) set_prep_value(out, rule.key, num(prep_value(p, rule.key)).get<double>());
+  return out;
+}
+
 std::string summary(const Scenario& s) {
   std::ostringstream o;
   o << (s.title.empty() ? s.file.filename().string() : s.title) << " (scenario version " << s.version << ")\n";
   if (!s.description.empty()) o << "  " << s.description << "\n";
   o << "organ: " << s.organ.path << " (" << s.organ.unit << ") -> " << s.organ.resolved.string()
     << (s.organ.sha256.empty() ? ", SHA-256 not given" : ", SHA-256 checked") << "\n";
+  if (const auto& p = s.organ.prep) {
+    o << "organ preparation: ";
+    if (p->edge > 0) o << "edge " << mm(p->edge) << " mm";
+    else o << "edge from a probe radius of " << mm(p->probe_radius) << " mm";
+    o << ", " << p->remesh_iterations << " remeshing iterations, " << p->fit_rounds << " fit rounds\n";
+  }
   o << "probe: tip radius " << mm(s.probe.tip_radius) << " mm, " << kShapeNames[static_cast<int>(s.probe.shape.kind)]
     << " shape function, support radius " << mm(s.probe.shape.radius) << " mm\n";
   o << "tissues (" << s.tissues.size() << "):\n";

@@ -36,11 +36,48 @@ class ScenarioError : public std::runtime_error {
   std::string file_, pointer_, message_;
 };
 
+/// How the organ file is prepared before use (modules/prep, docs/PREP.md):
+/// every parameter of prep::PrepOptions that changes the prepared mesh, so
+/// a session rebuilds the same mesh (through prep's cache: the second time
+/// it is loaded, not prepared). The defaults are prep::PrepOptions' own.
+/// Lengths in m. Exactly one of edge and probe_radius is set (> 0).
+struct PrepSpec {
+  double edge = 0;                    ///< target edge length, m (0: from probe_radius)
+  double probe_radius = 0;            ///< m: the edge is prep::target_edge_for(it, the organ's diagonal)
+  double speck_area_fraction = 0.01;  ///< components below this fraction of the largest one's area go
+  double max_hole_area_fraction = 0.2;///< a hole patch larger than this fraction of the surface: refused
+  bool autorefine = true;             ///< self-intersection repairs tried before the alpha wrap
+  bool local_repair = true;
+  int remesh_iterations = 5;
+  int relaxation_steps = 3;
+  double feature_angle_deg = 0;       ///< creases kept sharp (0: none)
+  int refine_rounds = 0;
+  int fit_rounds = 3;
+  double fit_factor = 0.75;
+  std::uint64_t fit_max_triangles = 400'000;
+  friend bool operator==(const PrepSpec&, const PrepSpec&) = default;
+};
+
+/// Bounds of PrepSpec's lengths the reader accepts, m.
+inline constexpr double kMinPrepEdge = 1e-4;          ///< 0.1 mm
+inline constexpr double kMaxPrepEdge = 0.1;           ///< 100 mm
+inline constexpr double kMaxPrepProbeRadius = 0.1;    ///< 100 mm
+
+/// What is wrong with a PrepSpec, as "<key>: <message>" with the file's key
+/// (e.g. "edge_mm: expected a length from 0.1 to 100 millimetres, got 0");
+/// empty when it is good. The reader gives the same message under /organ/prep.
+std::string prep_spec_error(const PrepSpec& p);
+/// The values as a file holds them (file units, 12 significant digits, read
+/// back to SI): what a scenario saved and loaded again has, so the same
+/// spec before and after saving prepares (and caches) the same mesh.
+PrepSpec as_written(const PrepSpec& p);
+
 struct OrganRef {
   std::string path;                 ///< as written, relative to the scenario file ("default" = the bundled organ)
   std::filesystem::path resolved;   ///< absolute (set by the reader)
   std::string unit = "mm";          ///< the mesh file's unit: m, cm, mm
   std::string sha256;               ///< of the mesh file's bytes (hex; empty: not checked)
+  std::optional<PrepSpec> prep;     ///< prepared before use (empty: used as the file is)
   friend bool operator==(const OrganRef&, const OrganRef&) = default;
 };
 
