@@ -43,6 +43,7 @@
 #include <QToolBar>
 #include <QVTKOpenGLNativeWidget.h>
 
+#include <cstdlib>
 #include <functional>
 
 namespace palpa::app {
@@ -233,8 +234,18 @@ TEST_F(ExamModeTest, MarksAreMadeListedDeletedAndClassifiedAtFinish) {
   QTest::mouseClick(w->findChild<QPushButton*>("examDeleteMark"), Qt::LeftButton);
   ASSERT_EQ(panel->marks().size(), 3u);
 
+  // PALPA_TEST_SCREENSHOTS=DIR keeps pictures of the exam for people.
+  const char* shots = std::getenv("PALPA_TEST_SCREENSHOTS");
+  if (shots && *shots) {
+    w->advance();
+    w->grab().save(QString(shots) + "/workbench_exam.png");
+  }
   QTest::mouseClick(w->findChild<QPushButton*>("examFinish"), Qt::LeftButton);
   ASSERT_TRUE(panel->finished());
+  if (shots && *shots) {
+    w->advance();
+    w->grab().save(QString(shots) + "/workbench_exam_finished.png");
+  }
   const ExamResult& r = panel->result();
   ASSERT_EQ(r.marks.size(), 3u);
   // The mark made with key M at the contact point over nodule A is on it (a
