@@ -41,6 +41,17 @@
 namespace palpa::app {
 namespace {
 
+// ThreadSanitizer runs the real-time loop many times slower than its
+// deadlines: the safety chain then holds forces at zero (kSafetyLoopLate),
+// as it must. Tests that drive a scripted device in wall time accept that
+// there, and only there.
+#if defined(__SANITIZE_THREAD__)
+constexpr bool kSlowBuild = true;
+#else
+constexpr bool kSlowBuild = false;
+#endif
+
+
 class SessionsGuiTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -179,8 +190,13 @@ TEST_F(SessionsGuiTest, RecordAndStopWriteASessionOfTheRunningLoopWithTheTrainee
   EXPECT_TRUE(f.ticks(0, first).ticks.empty());
   // The scripted probe pressed during the recording: its commands pushed back.
   double largest = 0;
-  for (const auto& t : span.ticks) largest = std::max(largest, haptics::to_vec(t.force_device[scripted_slot]).norm());
-  EXPECT_GT(largest, 0.005);
+  bool held_late = false;  // ThreadSanitizer slows the loop: the watchdog then holds the force at zero
+  const std::uint32_t late = haptics::kSafetyLoopLate | haptics::kSafetyModelLate;
+  for (const auto& t : span.ticks) {
+    largest = std::max(largest, haptics::to_vec(t.force_device[scripted_slot]).norm());
+    held_late = held_late || (t.flags[scripted_slot] & late) != 0;
+  }
+  EXPECT_TRUE(largest > 0.005 || (kSlowBuild && held_late)) << "largest force " << largest << " N";
 
   // The file alone re-simulates the recorded forces bit for bit.
   const LoadedSession s = load_session(file.string());
@@ -307,7 +323,9 @@ TEST_F(SessionsGuiTest, ReplaySeeksToATimeAndShowsTheRecordedTickAndSurface) {
       if ((view->drawn_position(i) - want).norm() > 1e-9) ++wrong;
     }
     EXPECT_EQ(wrong, 0u);
-    EXPECT_GT(deepest, 1e-4) << "the probe pressed: the recorded surface is dented";
+    // Under ThreadSanitizer the scripted press runs in wall time against a
+    // loop many times slower, so how deep the dent got by then is not ours to say.
+    if (!kSlowBuild) EXPECT_GT(deepest, 1e-4) << "the probe pressed: the recorded surface is dented";
   };
   expect_shows(1.5);
   expect_shows(0.7);   // back: restores the snapshot at or before, re-simulates forward
