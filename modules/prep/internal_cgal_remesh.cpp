@@ -16,6 +16,8 @@
 #include <CGAL/hilbert_sort.h>
 #include <CGAL/property_map.h>
 
+#include <algorithm>
+#include <cmath>
 #include <numeric>
 
 namespace palpa::prep::internal {
@@ -34,28 +36,153 @@ struct Projection {
 };
 }  // namespace
 
+namespace {
+double min_angle_cos_free(const Point& a, const Point& b, const Point& c) {
+  // The smallest angle of a triangle, in radians.
+  auto angle = [](const Point& p, const Point& q, const Point& r) {
+    const auto u = q - p, v = r - p;
+    const double nu = std::sqrt(u * u), nv = std::sqrt(v * v);
+    if (nu == 0 || nv == 0) return 0.0;
+    return std::acos(std::clamp((u * v) / (nu * nv), -1.0, 1.0));
+  };
+  return std::min({angle(a, b, c), angle(b, c, a), angle(c, a, b)});
+}
+
+// Two creases meeting at a vertex at an angle narrower than 20 degrees would
+// pin a triangle with that angle: the less sharp of the two stays free.
+void unpin_narrow_crease_junctions(CMesh& m, CMesh::Property_map<CMesh::Edge_index, bool>& sharp) {
+  const double narrow = std::cos(20.0 * CGAL_PI / 180.0);
+  auto turn = [&](CMesh::Halfedge_index h) {  // cosine of the dihedral turn: larger is less sharp
+    if (m.is_border(m.edge(h))) return -1.0;
+    auto n = [&](CMesh::Halfedge_index g) {
+      const Point &a = m.point(m.source(g)), &b = m.point(m.target(g)), &c = m.point(m.target(m.next(g)));
+      const auto v = CGAL::cross_product(b - a, c - a);
+      const double l = std::sqrt(v * v);
+      return l > 0 ? v / l : v;
+    };
+    return n(h) * n(m.opposite(h));
+  };
+  for (CMesh::Vertex_index v : m.vertices()) {
+    std::vector<CMesh::Halfedge_index> in;
+    for (CMesh::Halfedge_index h : CGAL::halfedges_around_target(m.halfedge(v), m))
+      if (sharp[m.edge(h)]) in.push_back(h);
+    for (std::size_t i = 0; i < in.size(); ++i)
+      for (std::size_t j = i + 1; j < in.size(); ++j) {
+        if (!sharp[m.edge(in[i])] || !sharp[m.edge(in[j])]) continue;
+        const auto u = m.point(m.source(in[i])) - m.point(v), w = m.point(m.source(in[j])) - m.point(v);
+        const double c = (u * w) / std::sqrt((u * u) * (w * w));
+        if (c <= narrow) continue;
+        sharp[m.edge(turn(in[i]) > turn(in[j]) ? in[i] : in[j])] = false;
+      }
+  }
+}
+
+// Protected creases keep triangles whose three vertices lie on a crease (an
+// input sliver whose two long edges both count as sharp): the remesher flips
+// only towards valence 6. Flips the unconstrained edge opposite such a
+// triangle's largest angle where that raises the smaller minimum angle of the
+// two triangles and folds nothing.
+void flip_slivers_at_creases(CMesh& m, const CMesh::Property_map<CMesh::Edge_index, bool>& sharp) {
+  const double limit = 20.0 * CGAL_PI / 180.0;
+  for (int pass = 0; pass < 5; ++pass) {
+    std::size_t flips = 0;
+    for (CMesh::Face_index f : m.faces()) {
+      CMesh::Halfedge_index h = m.halfedge(f);
+      // The halfedge opposite the largest angle: the longest edge.
+      CMesh::Halfedge_index best = h;
+      double longest = -1;
+      for (CMesh::Halfedge_index g : CGAL::halfedges_around_face(h, m)) {
+        const double l = CGAL::squared_distance(m.point(m.source(g)), m.point(m.target(g)));
+        if (l > longest) longest = l, best = g;
+      }
+      h = best;
+      const Point &a = m.point(m.source(h)), &b = m.point(m.target(h)), &c = m.point(m.target(m.next(h)));
+      const double before_f = min_angle_cos_free(a, b, c);
+      if (before_f >= limit || sharp[m.edge(h)] || m.is_border(m.edge(h))) continue;
+      const CMesh::Halfedge_index o = m.opposite(h);
+      const CMesh::Vertex_index vc = m.target(m.next(h)), vd = m.target(m.next(o));
+      if (vc == vd || CGAL::halfedge(vc, vd, m).second) continue;
+      const Point& d = m.point(vd);
+      const double before = std::min(before_f, min_angle_cos_free(b, a, d));
+      // After the flip: triangles (c, a, d) and (c, d, b) in the face's orientation.
+      const double after = std::min(min_angle_cos_free(c, a, d), min_angle_cos_free(c, d, b));
+      if (after <= before) continue;
+      const auto n1 = CGAL::cross_product(a - c, d - c), n2 = CGAL::cross_product(d - c, b - c);
+      const auto n0 = CGAL::cross_product(b - a, c - a) + CGAL::cross_product(a - b, d - b);
+      if (n1 * n2 <= 0 || n1 * n0 <= 0 || n2 * n0 <= 0) continue;
+      CGAL::Euler::flip_edge(h, m);
+      ++flips;
+    }
+    if (flips == 0) break;
+  }
+}
+}  // namespace
+
 // ---------------------------------------------------------------------------
 // isotropic_remeshing: splits edges longer than 4/3 L, collapses those
 // shorter than 4/5 L, flips towards valence 6, relaxes tangentially and
 // projects onto the surface as it was before.
 // Edges whose dihedral angle is sharper than feature_angle_deg (a crease,
-// e.g. where two overlapping spheres were joined, or an organ's rim) are
-// constrained: they are split and collapsed along the crease only, and their
-// vertices slide along it, so the crease stays sharp.
+// e.g. where two overlapping spheres were joined, an organ's rim, a coarse
+// input's fold crest) are constrained and their vertices pinned to them: the
+// creases are first split to at most the target edge (split_long_edges with
+// the same constraint map, so the pieces stay constrained), then remeshing
+// splits and collapses them only along the crease and never relaxes their
+// vertices off it, the last iteration neither splits nor collapses them
+// (protect_constraints), and crease end points and junctions (vertices with
+// other than two crease edges) are fixed corners. Without the pinning, remeshing cut the crests (the output's
+// vertices lie on the input, its triangles straddle the crease).
 std::size_t Work::remesh(double edge_m, int iterations, int relaxation_steps, double feature_angle_deg) {
   CMesh& m = impl_->mesh;
   impl_->reference = m;
   auto sharp = m.add_property_map<CMesh::Edge_index, bool>("e:prep_sharp", false).first;
+  auto corner = m.add_property_map<CMesh::Vertex_index, bool>("v:prep_corner", false).first;
+  for (CMesh::Edge_index e : m.edges()) sharp[e] = false;
+  for (CMesh::Vertex_index v : m.vertices()) corner[v] = false;
   if (feature_angle_deg > 0) PMP::detect_sharp_edges(m, feature_angle_deg, sharp);
-  std::size_t n_sharp = 0;
-  for (CMesh::Edge_index e : m.edges()) n_sharp += sharp[e];
+  unpin_narrow_crease_junctions(m, sharp);
+  std::vector<CMesh::Edge_index> creases;
+  for (CMesh::Edge_index e : m.edges())
+    if (sharp[e]) creases.push_back(e);
+  const std::size_t n_sharp = creases.size();
+  if (n_sharp == 0) {
+    PMP::isotropic_remeshing(faces(m), edge_m, m,
+                             PMP::parameters::number_of_iterations(iterations)
+                                 .number_of_relaxation_steps(relaxation_steps));
+    m.collect_garbage();
+    return 0;
+  }
+  for (CMesh::Vertex_index v : m.vertices()) {
+    int k = 0;
+    for (CMesh::Halfedge_index h : CGAL::halfedges_around_target(m.halfedge(v), m)) k += sharp[m.edge(h)];
+    corner[v] = k != 0 && k != 2;
+  }
+  // First the creases' own spacing evens out (constrained edges split and
+  // collapsed along the crease, their vertices kept on it), then a last
+  // iteration with the creases protected lets the flips and the relaxation
+  // even out the triangles beside them.
+  PMP::split_long_edges(creases, edge_m, m, PMP::parameters::edge_is_constrained_map(sharp));
   PMP::isotropic_remeshing(faces(m), edge_m, m,
-                           PMP::parameters::number_of_iterations(iterations)
+                           PMP::parameters::number_of_iterations(std::max(1, iterations - 1))
                                .number_of_relaxation_steps(relaxation_steps)
                                .edge_is_constrained_map(sharp)
-                               .relax_constraints(true)
-                               .protect_constraints(false));
+                               .vertex_is_constrained_map(corner)
+                               .protect_constraints(false)
+                               .relax_constraints(false));
   m.collect_garbage();
+  creases.clear();
+  for (CMesh::Edge_index e : m.edges())
+    if (sharp[e]) creases.push_back(e);
+  PMP::split_long_edges(creases, edge_m, m, PMP::parameters::edge_is_constrained_map(sharp));
+  PMP::isotropic_remeshing(faces(m), edge_m, m,
+                           PMP::parameters::number_of_iterations(1)
+                               .number_of_relaxation_steps(relaxation_steps)
+                               .edge_is_constrained_map(sharp)
+                               .vertex_is_constrained_map(corner)
+                               .protect_constraints(true)
+                               .relax_constraints(false));
+  m.collect_garbage();
+  flip_slivers_at_creases(m, sharp);
   return n_sharp;
 }
 
@@ -82,8 +209,29 @@ void Work::relax(int steps) {
   PMP::tangential_relaxation(vertices(m), m,
                              PMP::parameters::number_of_iterations(static_cast<unsigned>(steps))
                                  .vertex_is_constrained_map(fixed));
-  for (CMesh::Vertex_index v : m.vertices())
-    if (!fixed[v]) m.point(v) = tree.closest_point(m.point(v));
+  // The nearest point may lie across a crease: such a move would fold a
+  // triangle, so a vertex keeps its relaxed place where one of its triangles
+  // would turn by more than 90 degrees.
+  auto normal = [&](CMesh::Halfedge_index h) {
+    const Point& a = m.point(m.source(h));
+    const Point& b = m.point(m.target(h));
+    const Point& c = m.point(m.target(m.next(h)));
+    return CGAL::cross_product(b - a, c - a);
+  };
+  std::vector<Kernel::Vector_3> before;
+  for (CMesh::Vertex_index v : m.vertices()) {
+    if (fixed[v]) continue;
+    before.clear();
+    for (CMesh::Halfedge_index h : CGAL::halfedges_around_target(m.halfedge(v), m))
+      if (!m.is_border(h)) before.push_back(normal(h));
+    const Point old = m.point(v);
+    m.point(v) = tree.closest_point(old);
+    std::size_t k = 0;
+    bool folds = false;
+    for (CMesh::Halfedge_index h : CGAL::halfedges_around_target(m.halfedge(v), m))
+      if (!m.is_border(h)) folds = folds || normal(h) * before[k++] <= 0;
+    if (folds) m.point(v) = old;
+  }
   m.remove_property_map(fixed);
 }
 

@@ -65,11 +65,11 @@ struct PrepOptions {
   /// Tangential relaxation steps inside each iteration, and after the last.
   int relaxation_steps = 3;
   /// Edges whose normals differ by more than this (degrees) are creases the
-  /// remeshing keeps sharp; 0: none. Off by default: on the shared organs
-  /// it halves the Hausdorff distance at rims (sofa_liver.vtk 2.2 -> 1.1 mm at
-  /// a 2 mm edge) but leaves slivers where a crease meets the remeshed
-  /// triangles (minimum angle 0.1 degrees on the large intestine).
-  double feature_angle_deg = 0;
+  /// remeshing keeps sharp; 0: none. The creases are split to the edge and
+  /// their vertices pinned (their ends and junctions fixed), so the output
+  /// follows a coarse input's fold crests: the large intestine's Hausdorff
+  /// distance 1.09 -> 0.40 mm at a 1.13 mm edge.
+  double feature_angle_deg = 60;
   /// Rounds of local refinement where a feature is thinner than the edge
   /// (each with 0.6 times the previous edge); 0: none, the edge stays
   /// uniform (refinement lowers the Hausdorff distance at fissures and thin

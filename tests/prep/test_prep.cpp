@@ -205,16 +205,18 @@ TEST_F(Prep, AlphaWrapIsTheLastResortAndSaysHowTheShapeChanged) {
 }
 
 TEST_F(Prep, FitShortensTheEdgeWhereTheTargetIsMissed) {
-  // The crease where two spheres overlap is rounded by about a third of the
-  // edge, more than the quarter edge allowed: one fit round shortens the edge
-  // by 3/4 and brings the surface closer.
+  // Without crease pinning the crease where two spheres overlap is rounded
+  // by about a third of the edge, more than the quarter edge allowed: one fit
+  // round shortens the edge by 3/4 and brings the surface closer.
   const double r0 = 0.02, d = 0.025;
   mesh::SurfaceMesh s = sphere(r0, Vec3(-d / 2, 0, 0), 600);
   append(s, sphere(r0, Vec3(d / 2, 0, 0), 600));
   const auto file = write(dir, "overlap_small.ply", s);
   PrepReport plain, fitted;
-  prepare_file(file, options(0.004), &plain);
-  PrepOptions o = options(0.004);
+  PrepOptions p = options(0.004);
+  p.feature_angle_deg = 0;
+  prepare_file(file, p, &plain);
+  PrepOptions o = p;
   o.fit_rounds = 1;
   prepare_file(file, o, &fitted);
   EXPECT_GT(plain.hausdorff_m, std::max(0.5e-3, 0.004 / 4));
@@ -224,6 +226,25 @@ TEST_F(Prep, FitShortensTheEdgeWhereTheTargetIsMissed) {
   EXPECT_NE(fitted.edge_rule.find("shortened to 3 mm in 1 round(s)"), std::string::npos) << fitted.edge_rule;
   EXPECT_LT(fitted.hausdorff_m, plain.hausdorff_m);
   EXPECT_GT(fitted.after.triangles, plain.after.triangles);
+}
+
+TEST_F(Prep, PinnedCreasesKeepTheOverlapSharp) {
+  // The same overlap at the default feature angle: the crease is split to the
+  // edge and its vertices pinned, so the surface follows it within the
+  // quarter edge without shortening the edge, and no triangle folds.
+  const double r0 = 0.02, d = 0.025;
+  mesh::SurfaceMesh s = sphere(r0, Vec3(-d / 2, 0, 0), 600);
+  append(s, sphere(r0, Vec3(d / 2, 0, 0), 600));
+  PrepReport r;
+  prepare_file(write(dir, "overlap_small.ply", s), options(0.004), &r);
+  EXPECT_GT(r.crease_edges, 0u);
+  EXPECT_LE(r.hausdorff_m, 0.004 / 4) << report_text(r);
+  EXPECT_TRUE(r.after.closed);
+  EXPECT_TRUE(r.after.manifold);
+  EXPECT_TRUE(r.after.outward);
+  EXPECT_FALSE(r.self_intersecting_after);
+  EXPECT_LE(r.after.edge_cv, 0.2);
+  EXPECT_GT(r.after.min_angle_deg, 10.0) << report_text(r);
 }
 
 TEST_F(Prep, EdgeFromProbeRadiusFollowsTheRule) {
