@@ -50,7 +50,7 @@ struct PrepSpec {
   bool local_repair = true;
   int remesh_iterations = 5;
   int relaxation_steps = 3;
-  double feature_angle_deg = 0;       ///< creases kept sharp (0: none)
+  double feature_angle_deg = 60;      ///< creases sharper than this pinned, degrees (0: none)
   int refine_rounds = 0;
   int fit_rounds = 3;
   double fit_factor = 0.75;

@@ -218,7 +218,9 @@ TEST_F(MainWindowTest, AScriptedDeviceProbeDrivesAContact) {
     return pressed && (probe->output.force.dot(n0) > 0.05 || held_late);
   })) << "force " << probe->output.force.transpose() << ", depth " << probe->output.depth << " m, in contact "
       << probe->output.in_contact << ", safety flags 0x" << std::hex << probe->output.flags;
-  if (!held_late) EXPECT_NE(w->findChild<QLabel*>("forceReadout")->text(), "0.00 N");
+  if (!held_late) {
+    EXPECT_NE(w->findChild<QLabel*>("forceReadout")->text(), "0.00 N");
+  }
   EXPECT_TRUE(w->device_status_text().startsWith("scripted")) << w->device_status_text().toStdString();
   // Removing it releases the contact.
   w->remove_selected_probe();
