@@ -224,9 +224,10 @@ void ExamPanel::add_mark(const ExamMark& mark) {
 
 void ExamPanel::remove_mark(int index) {
   if (index < 0 || index >= static_cast<int>(marks_.size()) || finished_) return;
+  const ExamMark removed = marks_[static_cast<std::size_t>(index)];
   marks_.erase(marks_.begin() + index);
   refresh_marks();
-  emit mark_removed(index);
+  emit mark_removed(index, removed);
 }
 
 void ExamPanel::refresh_marks() {

@@ -96,7 +96,8 @@ class ExamPanel : public QWidget {
  signals:
   void mark_requested();
   void finish_requested();
-  void mark_removed(int index);
+  /// `mark` is the one deleted (it was at `index` in the list).
+  void mark_removed(int index, const ExamMark& mark);
 
  private:
   void refresh_marks();

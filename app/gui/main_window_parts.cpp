@@ -150,9 +150,13 @@ void MainWindow::build_window_parts() {
   exam_dock_->hide();
   connect(exam_panel_, &ExamPanel::mark_requested, this, [this] { request_mark(); });
   connect(exam_panel_, &ExamPanel::finish_requested, this, &MainWindow::finish_exam);
-  connect(exam_panel_, &ExamPanel::mark_removed, this, [this](int index) {
-    record::EventRecord e = record::EventRecord::make(record::EventKind::Note, 0, 0,
+  connect(exam_panel_, &ExamPanel::mark_removed, this, [this](int index, const ExamMark& m) {
+    // Names the withdrawn mark by its point, so palpa-assess drops that Mark
+    // even when the recording began after some marks were made.
+    record::EventRecord e = record::EventRecord::make(record::EventKind::Unmark, 0, 0,
                                                       QString("mark %1 deleted").arg(index + 1).toStdString());
+    e.point = haptics::to_triple(m.point);
+    e.value = m.diameter;
     workbench_.record_event(e);
   });
 

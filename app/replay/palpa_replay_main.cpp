@@ -316,8 +316,17 @@ int run(const Options& o) {
   }
   const std::vector<record::EventRecord> events = s.file.events();
   std::vector<std::unique_ptr<render::EllipsoidView>> mark_views;
-  std::vector<double> mark_times, mark_view_times;
-  for (const auto& e : events)
+  std::vector<double> mark_times, mark_view_times, mark_view_ends;
+  std::vector<Vec3> mark_view_points;
+  for (const auto& e : events) {
+    if (e.kind == record::EventKind::Unmark && o.overlays.count("marks") > 0) {
+      // The trainee deleted a mark: the latest standing one at that point leaves the picture.
+      for (std::size_t m = mark_views.size(); m-- > 0;)
+        if (mark_view_points[m] == haptics::to_vec(e.point) && mark_view_ends[m] > e.time - t0) {
+          mark_view_ends[m] = e.time - t0;
+          break;
+        }
+    }
     if (e.kind == record::EventKind::Mark) {
       mark_times.push_back(e.time - t0);
       if (o.overlays.count("marks") == 0) continue;
@@ -326,7 +335,10 @@ int run(const Options& o) {
       mv->set_color(1.0, 0.85, 0.1, 0.9);
       mark_views.push_back(std::move(mv));
       mark_view_times.push_back(e.time - t0);
+      mark_view_ends.push_back(std::numeric_limits<double>::infinity());
+      mark_view_points.push_back(haptics::to_vec(e.point));
     }
+  }
   std::vector<bool> mark_shown(mark_views.size(), false);
   Vec3 lo = mesh->positions[0], hi = lo;
   for (const Vec3& p : mesh->positions) {
@@ -454,12 +466,17 @@ int run(const Options& o) {
       view.update(mirror, p.dirty);
       view.set_transform(p.organ_to_world);
       for (auto& lv : lesion_views) lv->set_transform(p.organ_to_world);
-      for (std::size_t m = 0; m < mark_views.size(); ++m)
-        if (!mark_shown[m] && mark_view_times[m] <= p.now) {
+      for (std::size_t m = 0; m < mark_views.size(); ++m) {
+        const bool standing = mark_view_times[m] <= p.now && p.now < mark_view_ends[m];
+        if (standing && !mark_shown[m]) {
           mark_views[m]->set_transform(p.organ_to_world);
           mark_views[m]->add_to(scene.renderer());
           mark_shown[m] = true;
+        } else if (!standing && mark_shown[m]) {
+          mark_views[m]->remove_from(scene.renderer());
+          mark_shown[m] = false;
         }
+      }
       for (std::size_t j = 0; j < p.probes.size() && j < probes.size(); ++j)
         probes[j]->set_state(p.probes[j].world, p.probes[j].axis, p.probes[j].force, p.probes[j].in_contact, j == 0);
     }

@@ -180,6 +180,17 @@ Report Assessor::finish(const std::vector<record::EventRecord>& events) {
   for (const auto& e : events) {
     if (e.kind == record::EventKind::Reaction) ++r.reactions;
     if (e.kind == record::EventKind::Fault) ++r.faults;
+    if (e.kind == record::EventKind::Unmark) {
+      // The trainee deleted a mark: the latest standing one at that point goes.
+      const Vec3 p = haptics::to_vec(e.point);
+      for (auto it = r.marks.rbegin(); it != r.marks.rend(); ++it)
+        if (it->point == p) {
+          r.marks.erase(std::next(it).base());
+          ++r.marks_deleted;
+          break;
+        }
+      continue;
+    }
     if (e.kind != record::EventKind::Mark) continue;
     MarkResult mk;
     mk.point = haptics::to_vec(e.point);
@@ -349,7 +360,7 @@ std::string to_json(const Report& r) {
     << num(r.palpation_force) << ",\n  \"palpation_to_search_force_ratio\": " << num(r.force_ratio) << ",\n";
   j << "  \"peak_force_n\": " << num(r.peak_force) << ",\n  \"peak_force_time_s\": " << num(r.peak_force_time)
     << ",\n  \"time_over_force_limit_s\": " << num(r.time_over_limit) << ",\n  \"mean_contact_force_n\": "
-    << num(r.mean_contact_force) << ",\n  \"reactions\": " << r.reactions << ",\n  \"faults\": " << r.faults << ",\n";
+    << num(r.mean_contact_force) << ",\n  \"reactions\": " << r.reactions << ",\n  \"faults\": " << r.faults << ",\n  \"marks_deleted\": " << r.marks_deleted << ",\n";
   j << "  \"lesions\": [";
   for (std::size_t k = 0; k < r.lesions.size(); ++k) {
     const auto& l = r.lesions[k];
@@ -426,6 +437,7 @@ std::string to_html(const Report& r, const std::string& title, const std::vector
   row("peak force", num(r.peak_force) + " N at " + num(r.peak_force_time) + " s");
   row("time over the force limit", num(r.time_over_limit) + " s");
   row("sensitivity", num(r.sensitivity) + " (" + std::to_string(r.false_positives) + " false positives)");
+  if (r.marks_deleted > 0) row("marks deleted", std::to_string(r.marks_deleted) + " (not scored)");
   row("score", num(r.score) + (r.passed ? " (passed)" : " (not passed)"));
   h << "</table>\n<h2>Lesions</h2><table><tr><th>lesion</th><th>diameter</th><th>found</th><th>error</th><th>size error</th>"
        "<th>time</th><th>max contrast</th><th>if missed</th></tr>\n";

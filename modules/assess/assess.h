@@ -83,7 +83,8 @@ struct Report {
   std::size_t faults = 0;                        ///< fault events recorded
   // Detection.
   std::vector<LesionResult> lesions;
-  std::vector<MarkResult> marks;
+  std::vector<MarkResult> marks;                 ///< the marks standing at the end (deleted ones left out)
+  std::size_t marks_deleted = 0;                 ///< Unmark events that withdrew a mark
   double sensitivity = 0;                        ///< found / lesions (0 with no lesion)
   std::size_t false_positives = 0;
   // Verdict.

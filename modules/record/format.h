@@ -70,6 +70,7 @@ enum class EventKind : std::uint8_t {
   Warning = 2,   ///< a loop warning (LoopWarning bits in value)
   Reaction = 3,  ///< a guarding reaction of the tissue field
   Note = 4,      ///< free text
+  Unmark = 5,    ///< the trainee deletes a mark: point and value are the withdrawn Mark's (m), text says which
 };
 std::string_view event_kind_name(EventKind k);
 

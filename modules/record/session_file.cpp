@@ -35,6 +35,7 @@ std::string_view event_kind_name(EventKind k) {
     case EventKind::Warning: return "warning";
     case EventKind::Reaction: return "reaction";
     case EventKind::Note: return "note";
+    case EventKind::Unmark: return "unmark";
   }
   return "note";
 }
@@ -42,7 +43,8 @@ std::string_view event_kind_name(EventKind k) {
 namespace {
 
 EventKind event_kind_of(const std::string& s) {
-  for (auto k : {EventKind::Mark, EventKind::Fault, EventKind::Warning, EventKind::Reaction, EventKind::Note})
+  for (auto k : {EventKind::Mark, EventKind::Fault, EventKind::Warning, EventKind::Reaction, EventKind::Note,
+                 EventKind::Unmark})
     if (s == event_kind_name(k)) return k;
   return EventKind::Note;
 }

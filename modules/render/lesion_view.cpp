@@ -52,5 +52,6 @@ void EllipsoidView::set_transform(const Eigen::Matrix4d& m) {
 vtkActor* EllipsoidView::actor() const { return impl_->actor; }
 
 void EllipsoidView::add_to(vtkRenderer* renderer) const { renderer->AddActor(impl_->actor); }
+void EllipsoidView::remove_from(vtkRenderer* renderer) const { renderer->RemoveActor(impl_->actor); }
 
 }  // namespace palpa::render

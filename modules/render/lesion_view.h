@@ -27,6 +27,7 @@ class EllipsoidView {
   void set_transform(const Eigen::Matrix4d& organ_to_world);
   vtkActor* actor() const;
   void add_to(vtkRenderer* renderer) const;
+  void remove_from(vtkRenderer* renderer) const;
 
  private:
   struct Impl;

@@ -274,13 +274,22 @@ TEST_F(ExamModeTest, MarksAreRecordedAsMarkEvents) {
   const Vec3 a(0.01, 0.02, 0.03), b(-0.01, 0.0, 0.04);
   ASSERT_TRUE(w->add_mark(a, 0.011, "firm"));
   ASSERT_TRUE(w->add_mark(b, 0.0, "soft"));
+  const Vec3 c(0.0, -0.01, 0.02);
+  ASSERT_TRUE(w->add_mark(c, 0.0, "hard"));
+  w->remove_mark(2);  // the trainee deletes the third: an Unmark naming it
   const QString file = QString::fromStdString(w->workbench().recording_file().string());
   ASSERT_TRUE(w->stop_recording()) << w->error_text().toStdString();
   const auto f = record::SessionFile::open(file.toStdString());
-  std::vector<record::EventRecord> marks;
-  for (const auto& e : f.events())
+  std::vector<record::EventRecord> marks, unmarks;
+  for (const auto& e : f.events()) {
     if (e.kind == record::EventKind::Mark) marks.push_back(e);
-  ASSERT_EQ(marks.size(), 2u);
+    if (e.kind == record::EventKind::Unmark) unmarks.push_back(e);
+  }
+  ASSERT_EQ(marks.size(), 3u);
+  ASSERT_EQ(unmarks.size(), 1u);
+  EXPECT_EQ(haptics::to_vec(unmarks[0].point), c);
+  EXPECT_STREQ(unmarks[0].text, "mark 3 deleted");
+  EXPECT_GE(unmarks[0].tick, marks[2].tick);  // recorded after the mark it withdraws
   EXPECT_EQ(haptics::to_vec(marks[0].point), a);
   EXPECT_DOUBLE_EQ(marks[0].value, 0.011);
   EXPECT_STREQ(marks[0].text, "firm");

@@ -325,7 +325,9 @@ TEST_F(SessionsGuiTest, ReplaySeeksToATimeAndShowsTheRecordedTickAndSurface) {
     EXPECT_EQ(wrong, 0u);
     // Under ThreadSanitizer the scripted press runs in wall time against a
     // loop many times slower, so how deep the dent got by then is not ours to say.
-    if (!kSlowBuild) EXPECT_GT(deepest, 1e-4) << "the probe pressed: the recorded surface is dented";
+    if (!kSlowBuild) {
+      EXPECT_GT(deepest, 1e-4) << "the probe pressed: the recorded surface is dented";
+    }
   };
   expect_shows(1.5);
   expect_shows(0.7);   // back: restores the snapshot at or before, re-simulates forward

@@ -155,6 +155,33 @@ TEST(Assess, AMarkAwayFromEveryLesionIsAFalsePositive) {
   EXPECT_EQ(r.marks[0].lesion, -1);
 }
 
+// A deleted mark is not scored: the wrong mark the trainee withdrew is no
+// false positive, and of two marks at one point one deletion leaves one.
+TEST(Assess, ADeletedMarkIsNotScored) {
+  std::vector<Step> s(500, Step{Vec3(0.010, 0.010, 0), 0.004});
+  auto wrong = record::EventRecord::make(record::EventKind::Mark, 50, 0.05);
+  wrong.point = {-0.015, -0.015, -0.005};
+  auto right = record::EventRecord::make(record::EventKind::Mark, 300, 0.3, "hard");
+  right.point = {0.010, 0.011, -0.005};
+  right.value = 0.006;
+  auto unmark = record::EventRecord::make(record::EventKind::Unmark, 400, 0.4, "mark 1 deleted");
+  unmark.point = wrong.point;
+  const Report r = run(plane(), s, {lesion()}, Task{}, {wrong, right, unmark});
+  EXPECT_EQ(r.marks_deleted, 1u);
+  ASSERT_EQ(r.marks.size(), 1u);
+  EXPECT_EQ(r.false_positives, 0u);
+  EXPECT_DOUBLE_EQ(r.sensitivity, 1.0);
+  EXPECT_NE(to_json(r).find("\"marks_deleted\": 1"), std::string::npos);
+  // Twice the same wrong mark, deleted once: one false positive stays. An
+  // Unmark naming no standing mark (recording began later) changes nothing.
+  auto stray = unmark;
+  stray.point = {0.5, 0.5, 0.5};
+  const Report twice = run(plane(), s, {lesion()}, Task{}, {wrong, wrong, right, unmark, stray});
+  EXPECT_EQ(twice.marks_deleted, 1u);
+  EXPECT_EQ(twice.marks.size(), 2u);
+  EXPECT_EQ(twice.false_positives, 1u);
+}
+
 // A trainee marks on the surface: a mark straight above a lesion 15 mm
 // deep (beyond the 10 mm tolerance from its centre) is on it, with no
 // localisation error (the plane's vertex above the centre is the mark);
