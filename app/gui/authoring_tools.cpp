@@ -13,6 +13,7 @@
 #include <vtkRenderer.h>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <stdexcept>
 
@@ -103,10 +104,27 @@ void AuthoringTools::add_view(const Vec3& centre, double radius, double r, doubl
   handles_.push_back(std::move(v));
 }
 
-void AuthoringTools::attach(vtkRenderer* renderer, double size) {
-  if (renderer_)
-    for (auto& h : handles_) renderer_->RemoveActor(h->actor());
+void AuthoringTools::add_scene_view(const Vec3& centre, double radius, double r, double g, double b,
+                                    double opacity) {
+  auto v = std::make_unique<render::EllipsoidView>(centre, Vec3::Constant(radius));
+  v->set_color(r, g, b, opacity);
+  v->set_transform(transform_);
+  v->add_to(renderer_);
+  scene_views_.push_back(std::move(v));
+}
+
+void AuthoringTools::clear_views() {
+  if (renderer_) {
+    for (auto& h : handles_) h->remove_from(renderer_);
+    for (auto& v : scene_views_) v->remove_from(renderer_);
+  }
   handles_.clear();
+  scene_views_.clear();
+  pulse_dots_ = painted_drawn_ = 0;
+}
+
+void AuthoringTools::attach(vtkRenderer* renderer, double size) {
+  clear_views();
   renderer_ = renderer;
   size_ = size;
   refresh();
@@ -115,14 +133,40 @@ void AuthoringTools::attach(vtkRenderer* renderer, double size) {
 void AuthoringTools::set_transform(const Eigen::Matrix4d& organ_to_world) {
   transform_ = organ_to_world;
   for (auto& h : handles_) h->set_transform(transform_);
+  for (auto& v : scene_views_) v->set_transform(transform_);
 }
 
 void AuthoringTools::refresh() {
-  if (renderer_)
-    for (auto& h : handles_) renderer_->RemoveActor(h->actor());
-  handles_.clear();
+  clear_views();
   if (!renderer_) return;
   if (doc_->has_scenario()) {
+    const scenario::Scenario& s = doc_->scenario();
+    // Pulse paths: a dot at every point and along each segment, about a
+    // handle apart.
+    for (const tissue::Pulse& pulse : s.pulses)
+      for (std::size_t k = 0; k < pulse.path.size(); ++k) {
+        const Vec3& a = pulse.path[k];
+        if (k + 1 == pulse.path.size()) {
+          add_scene_view(a, 0.3 * size_, 0.1, 0.5, 1.0, 0.9);
+          ++pulse_dots_;
+          break;
+        }
+        const Vec3& b = pulse.path[k + 1];
+        const int n = std::clamp(static_cast<int>(std::ceil((b - a).norm() / (0.8 * size_))), 1, 200);
+        for (int i = 0; i < n; ++i) {
+          add_scene_view(a + (b - a) * (static_cast<double>(i) / n), 0.3 * size_, 0.1, 0.5, 1.0, 0.9);
+          ++pulse_dots_;
+        }
+      }
+    // Painted spheres (the brush's regions): a softening scale green, a
+    // stiffening scale or a tissue magenta.
+    for (const tissue::Region& g : s.regions) {
+      if (g.kind != tissue::RegionKind::Sphere || g.name.rfind(kPaintPrefix, 0) != 0) continue;
+      const bool softer = g.tissue.empty() && g.scale < 1.0;
+      if (softer) add_scene_view(g.centre, g.radius, 0.2, 0.85, 0.4, 0.18);
+      else add_scene_view(g.centre, g.radius, 0.85, 0.2, 0.8, 0.18);
+      ++painted_drawn_;
+    }
     const auto& lesions = doc_->scenario().lesions;
     for (std::size_t k = 0; k < lesions.size(); ++k) {
       Vec3 p = handle_point(k);

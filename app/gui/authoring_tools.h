@@ -102,7 +102,10 @@ class AuthoringTools : public QObject {
   /// A viewport event (mouse, keys) while authoring: true when a tool took it.
   bool handle(QEvent* event);
 
-  /// Draws the handles (lesions, pulse points being drawn) into `renderer`
+  /// Draws the handles (lesions, pulse points being drawn) and what the
+  /// scenario holds that has no other picture (each pulse path as a dotted
+  /// blue line, each painted sphere translucent: green for a modulus scale
+  /// below 1, magenta for a larger scale or a tissue) into `renderer`
   /// (the window's inclusions layer), `size` m across; null removes them.
   void attach(vtkRenderer* renderer, double size);
   /// Organ frame to world (breathing) for the handles.
@@ -110,6 +113,12 @@ class AuthoringTools : public QObject {
   /// Rebuilds the handles from the document (after every change).
   void refresh();
   std::size_t handle_count() const { return handles_.size(); }
+  /// A handle's radius scale, m (the size given to attach()).
+  double handle_size() const { return size_; }
+  /// Dots drawn along the scenario's pulse paths.
+  std::size_t pulse_path_dots() const { return pulse_dots_; }
+  /// Painted spheres drawn.
+  std::size_t painted_drawn() const { return painted_drawn_; }
 
  signals:
   void selectionChanged(int lesion);
@@ -126,6 +135,8 @@ class AuthoringTools : public QObject {
   void paint_at(const Vec3& point);
   void finish_stroke();
   void add_view(const Vec3& centre, double radius, double r, double g, double b, double opacity);
+  void add_scene_view(const Vec3& centre, double radius, double r, double g, double b, double opacity);
+  void clear_views();
 
   ScenarioDocument* doc_;
   Pick pick_;
@@ -148,6 +159,8 @@ class AuthoringTools : public QObject {
   double size_ = 0.004;
   Eigen::Matrix4d transform_ = Eigen::Matrix4d::Identity();
   std::vector<std::unique_ptr<render::EllipsoidView>> handles_;
+  std::vector<std::unique_ptr<render::EllipsoidView>> scene_views_;  // pulse paths, painted spheres
+  std::size_t pulse_dots_ = 0, painted_drawn_ = 0;
 };
 
 }  // namespace palpa::app

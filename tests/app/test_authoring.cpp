@@ -438,6 +438,11 @@ TEST_F(AuthoringTest, ThePanelEditsTheTaskBreathingTissuePulseAndPaint) {
   EXPECT_EQ(w->workbench().field()->pulse_count, 1u);
   EXPECT_EQ(undo->text(), "&Undo Add pulse path");
   EXPECT_TRUE(w->authoring_tools()->pulse_points().empty());
+  // The saved path stays drawn: a dot at each end and along it, at most
+  // 0.8 handle sizes apart.
+  const double spacing = 0.8 * w->authoring_tools()->handle_size();
+  EXPECT_EQ(w->authoring_tools()->pulse_path_dots(), 1u + static_cast<std::size_t>(std::ceil((doc->scenario().pulses[0].path[1] - doc->scenario().pulses[0].path[0]).norm() / spacing)));
+  EXPECT_GE(w->authoring_tools()->pulse_path_dots(), 2u);
 
   // Paint: a click paints a sphere of the modulus scale; erase removes it.
   w->findChild<QToolButton*>("paintTool")->click();
@@ -448,15 +453,22 @@ TEST_F(AuthoringTest, ThePanelEditsTheTaskBreathingTissuePulseAndPaint) {
   EXPECT_EQ(doc->scenario().regions[0].kind, tissue::RegionKind::Sphere);
   EXPECT_EQ(doc->scenario().regions[0].scale, 3);
   EXPECT_EQ(undo->text(), "&Undo Paint tissue");
+  EXPECT_EQ(w->authoring_tools()->painted_drawn(), 1u) << "the painted sphere is drawn";
+  if (const char* shots = std::getenv("PALPA_TEST_SCREENSHOTS"); shots && *shots) {
+    QTest::qWait(200);
+    w->grab().save(QString(shots) + "/workbench_authoring_pulse_paint.png");
+  }
   w->findChild<QCheckBox*>("brushErase")->setChecked(true);
   QTest::mouseClick(w->viewport(), Qt::LeftButton, Qt::NoModifier, *a);
   EXPECT_TRUE(doc->scenario().regions.empty());
+  EXPECT_EQ(w->authoring_tools()->painted_drawn(), 0u);
   EXPECT_EQ(undo->text(), "&Undo Erase painted tissue");
 
   // Every step undoes, down to the new scenario.
   while (doc->undo_stack()->canUndo()) undo->trigger();
   EXPECT_FALSE(doc->modified());
   EXPECT_TRUE(doc->scenario().pulses.empty());
+  EXPECT_EQ(w->authoring_tools()->pulse_path_dots(), 0u) << "the undone path is no longer drawn";
   EXPECT_FALSE(doc->scenario().breathing.enabled);
   EXPECT_EQ(doc->scenario().task.time_limit, scenario::Task{}.time_limit);
 }
