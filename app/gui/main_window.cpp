@@ -454,7 +454,12 @@ bool MainWindow::open_scenario(const QString& path) {
     return false;
   }
   try {
-    install_scenario(Workbench::resolve_scenario(path.toStdString()));
+    std::optional<scenario::Resolved> resolved = resolve_scenario_with_progress(this, path);
+    if (!resolved) {
+      statusBar()->showMessage(QString("Opening %1 cancelled: nothing changed").arg(info.fileName()), 8000);
+      return false;
+    }
+    install_scenario(std::move(*resolved));
   } catch (const std::exception& e) {
     show_error(QString("Could not open %1: %2").arg(info.fileName(), QString::fromStdString(e.what())));
     return false;

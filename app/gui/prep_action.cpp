@@ -13,6 +13,8 @@
 #include <QDialog>
 #include <QDialogButtonBox>
 #include <QDoubleSpinBox>
+#include <QEventLoop>
+#include <QFileInfo>
 #include <QFormLayout>
 #include <QLabel>
 #include <QMetaObject>
@@ -276,6 +278,73 @@ void PrepAction::on_done(const std::shared_ptr<Job>& job) {
   for (const std::string& w : result_.summary.warnings) last_message_ += "; " + QString::fromStdString(w);
   window_->statusBar()->showMessage(last_message_);
   emit finished(last_message_);
+}
+
+// ---------------------------------------------------------------------------
+// Opening a scenario whose organ is prepared: the first time, preparation
+// takes seconds to minutes; the window stays live and the user may cancel.
+std::optional<scenario::Resolved> resolve_scenario_with_progress(QWidget* parent, const QString& path) {
+  const std::filesystem::path file = path.toStdString();
+  scenario::Scenario sc = scenario::load_scenario(file);  // throws ScenarioError naming the file
+  if (!sc.organ.prep) return Workbench::resolve_scenario(file);
+
+  QProgressDialog dialog(QString("Opening %1: loading and preparing its organ...").arg(QFileInfo(path).fileName()),
+                         "Cancel", 0, 1000, parent);
+  dialog.setObjectName("openPrepProgress");
+  dialog.setWindowTitle("Open scenario");
+  dialog.setToolTip("The scenario's organ is prepared as its organ.prep says (from prep's cache after the first time)");
+  dialog.setWindowModality(Qt::WindowModal);
+  dialog.setAutoClose(false);
+  dialog.setAutoReset(false);
+  dialog.setMinimumDuration(500);
+  dialog.setValue(0);
+  std::atomic<bool> cancel{false};
+  QObject::connect(&dialog, &QProgressDialog::canceled, &dialog, [&] {
+    cancel = true;
+    dialog.setLabelText("Cancelling at the end of the current step...");
+  });
+
+  QEventLoop loop;
+  mesh::Organ organ;
+  std::exception_ptr error;
+  bool cancelled = false;
+  std::thread worker([&] {
+    scenario::PrepHooks hooks;
+    hooks.cancel = &cancel;
+    QProgressDialog* d = &dialog;
+    hooks.progress = [d](std::string_view step, int index, int count, double fraction) {
+      const int value = count > 0 ? static_cast<int>(1000 * (index + std::clamp(fraction, 0.0, 1.0)) / count) : 0;
+      const QString s = QString::fromUtf8(step.data(), static_cast<int>(step.size()));
+      // Queued to the dialog: dropped if it is gone.
+      QMetaObject::invokeMethod(
+          d,
+          [d, s, value] {
+            if (d->wasCanceled()) return;
+            d->setLabelText("Preparing the scenario's organ: " + s);
+            d->setValue(std::max(d->value(), value));
+          },
+          Qt::QueuedConnection);
+    };
+    try {
+      organ = scenario::load_scenario_organ(sc.organ, sc.file.empty() ? file.string() : sc.file.string(), hooks);
+    } catch (const scenario::PrepCancelled&) {
+      cancelled = true;
+    } catch (...) {
+      error = std::current_exception();
+    }
+    QMetaObject::invokeMethod(&loop, [&loop] { loop.quit(); }, Qt::QueuedConnection);
+  });
+  loop.exec();
+  worker.join();
+  if (cancelled || cancel) return std::nullopt;
+  try {
+    if (error) std::rethrow_exception(error);
+    return scenario::resolve_on(sc, std::move(organ));
+  } catch (const scenario::ScenarioError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw std::runtime_error(file.string() + ": " + e.what());  // as Workbench::resolve_scenario names it
+  }
 }
 
 }  // namespace palpa::app

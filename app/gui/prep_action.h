@@ -22,12 +22,23 @@
 #include <QString>
 
 #include <memory>
+#include <optional>
 #include <thread>
 
 class QAction;
 class QProgressDialog;
+class QWidget;
 
 namespace palpa::app {
+
+/// Reads and resolves the scenario file `path` like
+/// Workbench::resolve_scenario, but loads (and, with organ.prep not yet in
+/// prep's cache, prepares) its organ on a worker thread under a window-modal
+/// progress dialog (objectName "openPrepProgress", shown after 0.5 s) with a
+/// Cancel button, while the window's event loop, and so its haptic loop and
+/// frames, keep running. nullopt when cancelled; throws what
+/// Workbench::resolve_scenario throws (messages naming the file).
+std::optional<scenario::Resolved> resolve_scenario_with_progress(QWidget* parent, const QString& path);
 
 class MainWindow;
 

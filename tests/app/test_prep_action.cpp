@@ -21,6 +21,7 @@
 #include <QPushButton>
 #include <QStatusBar>
 #include <QTest>
+#include <QTimer>
 #include <QUndoStack>
 
 #include <cstdlib>
@@ -234,6 +235,68 @@ TEST_F(PrepActionTest, OnAScenarioItIsAnUndoableEditThatSavingRecords) {
   EXPECT_EQ(w->workbench().organ().mesh->vertex_count(), prepared->vertex_count());
   const auto ticks = w->workbench().statistics().ticks;
   EXPECT_TRUE(wait_until([&] { return w->workbench().statistics().ticks > ticks; }, 20000));
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+}
+
+// Opening a saved scenario whose organ.prep is not in the cache prepares on
+// a worker thread under a progress dialog: the window's event loop keeps
+// running (a zero-interval timer fires meanwhile), Cancel changes nothing,
+// and the next open (still uncached) resolves the prepared organ.
+TEST_F(PrepActionTest, OpeningAnUncachedPreparedScenarioShowsProgressAndCanBeCancelled) {
+  auto w = open_window();
+  ASSERT_TRUE(w->new_scenario()) << w->error_text().toStdString();
+  const QString error = w->document()->edit("Prepare", [](scenario::Scenario& s) { s.organ.prep = coarse(0.008); });
+  ASSERT_TRUE(error.isEmpty()) << error.toStdString();
+  const auto dir = test::temp_dir("gui_open_prepared");
+  const QString file = QString::fromStdString((dir / "prepared.json").string());
+  ASSERT_TRUE(w->save_document_as(file)) << w->error_text().toStdString();
+  const std::size_t prepared_vertices = w->workbench().organ().mesh->vertex_count();
+  w->open_default_organ();
+  const auto before = w->workbench().organ().mesh;
+  ASSERT_NE(before->vertex_count(), prepared_vertices);
+
+  // Cancel as soon as the dialog exists: nothing changes.
+  std::filesystem::remove_all(cache_);
+  std::filesystem::create_directories(cache_);
+  int polls = 0;
+  bool saw_dialog = false;
+  QTimer poll;
+  poll.setInterval(0);
+  QObject::connect(&poll, &QTimer::timeout, [&] {
+    ++polls;
+    if (auto* d = w->findChild<QProgressDialog*>("openPrepProgress")) {
+      saw_dialog = true;
+      if (auto* b = d->findChild<QPushButton*>()) b->click();  // its Cancel button
+    }
+  });
+  poll.start();
+  EXPECT_FALSE(w->open_scenario(file));
+  poll.stop();
+  EXPECT_TRUE(saw_dialog);
+  EXPECT_GT(polls, 0) << "the window's event loop ran during the preparation";
+  EXPECT_EQ(w->workbench().organ().mesh, before) << "cancelled: the organ is unchanged";
+  EXPECT_FALSE(w->workbench().has_scenario());
+  EXPECT_TRUE(w->statusBar()->currentMessage().contains("cancelled")) << w->statusBar()->currentMessage().toStdString();
+
+  // Again, uncached, not cancelled: the prepared organ runs.
+  std::filesystem::remove_all(cache_);
+  std::filesystem::create_directories(cache_);
+  polls = 0;
+  saw_dialog = false;
+  poll.disconnect();
+  QObject::connect(&poll, &QTimer::timeout, [&] {
+    ++polls;
+    saw_dialog = saw_dialog || w->findChild<QProgressDialog*>("openPrepProgress") != nullptr;
+  });
+  poll.start();
+  ASSERT_TRUE(w->open_scenario(file)) << w->error_text().toStdString();
+  poll.stop();
+  EXPECT_TRUE(saw_dialog);
+  EXPECT_GT(polls, 0);
+  ASSERT_TRUE(w->workbench().has_scenario());
+  EXPECT_EQ(w->workbench().organ().mesh->vertex_count(), prepared_vertices);
+  EXPECT_EQ(w->findChild<QProgressDialog*>("openPrepProgress"), nullptr) << "the dialog is gone";
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
 }
