@@ -88,8 +88,11 @@ void PrepAction::ask() {
   }
   const scenario::OrganRef ref = window_->organ_ref();
   scenario::PrepSpec last = ref.prep.value_or(scenario::PrepSpec{});
-  double tip = tissue::kDefaultTipRadius;
-  if (const scenario::Resolved* sc = window_->workbench().scenario()) tip = sc->scenario.probe.tip_radius;
+  double tip = tissue::kDefaultTipRadius, smallest = 0;
+  if (const scenario::Resolved* sc = window_->workbench().scenario()) {
+    tip = sc->scenario.probe.tip_radius;
+    smallest = scenario::smallest_lesion_radius(sc->scenario);
+  }
 
   QDialog dialog(window_);
   dialog.setWindowTitle("Prepare organ");
@@ -119,6 +122,15 @@ void PrepAction::ask() {
   probe->setDecimals(2);
   probe->setSuffix(" mm");
   probe->setValue((last.probe_radius > 0 ? last.probe_radius : tip) * 1e3);
+  auto* lesion = new QDoubleSpinBox;
+  lesion->setObjectName("prepLesionRadius");
+  lesion->setToolTip("The smallest lesion the mesh must resolve, mm: the edge is at most half of it (0: none; "
+                     "filled from the scenario's smallest lesion)");
+  lesion->setRange(0, scenario::kMaxPrepProbeRadius * 1e3);
+  lesion->setDecimals(2);
+  lesion->setSuffix(" mm");
+  lesion->setSpecialValueText("none");
+  lesion->setValue((last.lesion_radius > 0 ? last.lesion_radius : smallest) * 1e3);
   auto* group = new QButtonGroup(&dialog);
   group->addButton(by_edge);
   group->addButton(by_probe);
@@ -130,6 +142,9 @@ void PrepAction::ask() {
   fit->setChecked(last.fit_rounds > 0);
   form->addRow(by_edge, edge);
   form->addRow(by_probe, probe);
+  form->addRow("Smallest lesion radius", lesion);
+  lesion->setEnabled(by_probe->isChecked());
+  connect(by_probe, &QRadioButton::toggled, lesion, &QWidget::setEnabled);
   layout->addLayout(form);
   layout->addWidget(fit);
   auto* buttons = new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel);
@@ -144,6 +159,7 @@ void PrepAction::ask() {
   scenario::PrepSpec spec = last;
   spec.edge = by_edge->isChecked() ? edge->value() * 1e-3 : 0.0;
   spec.probe_radius = by_edge->isChecked() ? 0.0 : probe->value() * 1e-3;
+  spec.lesion_radius = by_edge->isChecked() ? 0.0 : lesion->value() * 1e-3;
   spec.fit_rounds = fit->isChecked() ? std::max(last.fit_rounds, scenario::PrepSpec{}.fit_rounds) : 0;
   start(spec);
 }

@@ -4,6 +4,7 @@
 #include "mesh/io.h"
 #include "mesh/organ.h"
 #include "prep/prep.h"
+#include "scenario/scenario.h"
 
 #include <chrono>
 #include <cmath>
@@ -18,7 +19,8 @@ namespace {
 using namespace palpa;
 
 constexpr const char* kUsage =
-    "usage: palpa-prep IN OUT [--unit U] [--edge-mm L | --probe-radius-mm R] [--report FILE.json]\n"
+    "usage: palpa-prep IN OUT [--unit U] [--edge-mm L | --probe-radius-mm R] [--lesion-radius-mm A | --scenario S]\n"
+    "                  [--report FILE.json]\n"
     "                  [--repaired FILE] [--fit-rounds N] [--feature-angle DEG] [--refine-rounds N]\n"
     "                  [--no-cache] [--cache-dir DIR] [--quiet]\n"
     "  IN                 any mesh Palpa reads (.obj .stl .ply .off .vtk .vtp .trian)\n"
@@ -26,6 +28,8 @@ constexpr const char* kUsage =
     "  --unit U           file unit of IN: m, cm, mm, auto (default: guessed from the size) or metres per unit (1e-3)\n"
     "  --edge-mm L        target edge length, mm\n"
     "  --probe-radius-mm R  probe tip radius, mm (default 8); the edge is R/4, at most 1/40 of the organ's diagonal\n"
+    "  --lesion-radius-mm A  the smallest lesion to resolve, mm: the edge is also at most A/2 (not with --edge-mm)\n"
+    "  --scenario S       take A from scenario S: its smallest lesion semi-axis (or random lesion radius)\n"
     "  --fit-rounds N     while the Hausdorff or volume target is missed, shorten the edge by 3/4 and remesh,\n"
     "                     at most N times (default 3; never past 400000 triangles; 0: keep the edge)\n"
     "  --feature-angle DEG  edges whose faces turn by more than DEG stay sharp creases, their vertices\n"
@@ -62,7 +66,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> pos;
   prep::PrepOptions opt;
   std::string report_path, cache_dir, repaired_path;
-  bool use_cache = true, quiet = false, edge_given = false, radius_given = false;
+  bool use_cache = true, quiet = false, edge_given = false, radius_given = false, lesion_given = false;
+  std::string scenario_path;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](std::string& v) {
@@ -95,6 +100,13 @@ int main(int argc, char** argv) {
         return usage_error("--probe-radius-mm needs a positive length in mm");
       opt.probe_radius_m *= 1e-3;
       radius_given = true;
+    } else if (a == "--lesion-radius-mm") {
+      if (!value(v) || !parse_positive(v, opt.lesion_radius_m) || opt.lesion_radius_m > 100)
+        return usage_error("--lesion-radius-mm needs a positive length in mm, at most 100");
+      opt.lesion_radius_m *= 1e-3;
+      lesion_given = true;
+    } else if (a == "--scenario") {
+      if (!value(scenario_path)) return usage_error("--scenario needs a scenario file");
     } else if (a == "--feature-angle") {
       if (!value(v) || (v != "0" && !parse_positive(v, opt.feature_angle_deg)) || opt.feature_angle_deg > 180)
         return usage_error("--feature-angle needs an angle in degrees from 0 to 180");
@@ -127,6 +139,23 @@ int main(int argc, char** argv) {
   }
   if (pos.size() != 2) return usage_error("needs an input and an output file");
   if (edge_given && radius_given) return usage_error("give --edge-mm or --probe-radius-mm, not both");
+  if (lesion_given && !scenario_path.empty()) return usage_error("give --lesion-radius-mm or --scenario, not both");
+  if (edge_given && (lesion_given || !scenario_path.empty()))
+    return usage_error("--lesion-radius-mm and --scenario choose the edge with the probe radius; --edge-mm gives it");
+  if (!scenario_path.empty()) {
+    try {
+      opt.lesion_radius_m = scenario::smallest_lesion_radius(scenario::load_scenario(scenario_path));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "palpa-prep: %s\n", e.what());
+      return 1;
+    }
+    if (!quiet) {
+      if (opt.lesion_radius_m > 0)
+        std::printf("%s: smallest lesion radius %.3g mm\n", scenario_path.c_str(), opt.lesion_radius_m * 1e3);
+      else
+        std::printf("%s: no lesions; the edge follows the probe radius\n", scenario_path.c_str());
+    }
+  }
 
   // Progress: one line per step as it starts, its time when it ends.
   if (!quiet)

@@ -80,6 +80,7 @@ std::string cache_key(const std::filesystem::path& path, const PrepOptions& o) {
          << " hole=" << o.max_hole_area_fraction << " it=" << o.remesh_iterations << " relax=" << o.relaxation_steps
          << " refine=" << o.refine_rounds << " feature=" << o.feature_angle_deg
          << " si=" << o.allow_autorefine << o.allow_local_repair << " fit=" << o.fit_rounds << "," << o.fit_factor << "," << o.fit_max_triangles;
+  if (o.edge_m == 0 && o.lesion_radius_m > 0) params << " lesion=" << o.lesion_radius_m;  // absent: the keys made before it
   const std::string p = params.str();
   h.add(p.data(), p.size());
   return h.hex();

@@ -28,9 +28,11 @@ constexpr double kMaxTriangles = 5e6;
 }  // namespace
 
 // ---------------------------------------------------------------------------
-double target_edge_for(double probe_radius_m, double diagonal_m) {
-  const double quarter = probe_radius_m / 4;
-  return diagonal_m > 0 ? std::min(quarter, diagonal_m / 40) : quarter;
+double target_edge_for(double probe_radius_m, double diagonal_m, double lesion_radius_m) {
+  double edge = probe_radius_m / 4;
+  if (diagonal_m > 0) edge = std::min(edge, diagonal_m / 40);
+  if (lesion_radius_m > 0) edge = std::min(edge, lesion_radius_m / 2);
+  return edge;
 }
 
 // ---------------------------------------------------------------------------
@@ -130,6 +132,8 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
     throw PrepError(source + ": the edge length must be a positive length in metres");
   if (options.edge_m == 0 && (!(options.probe_radius_m > 0) || !std::isfinite(options.probe_radius_m)))
     throw PrepError(source + ": the probe radius must be a positive length in metres");
+  if (!(options.lesion_radius_m >= 0) || !std::isfinite(options.lesion_radius_m))
+    throw PrepError(source + ": the lesion radius must be zero (none) or a positive length in metres");
 
   r.before = summarize(input);
   const double diag = r.before.extent_m;
@@ -137,12 +141,16 @@ mesh::SurfaceMesh prepare(const mesh::SurfaceMesh& input, const PrepOptions& opt
     r.edge_target_m = options.edge_m;
     r.edge_rule = "given: " + fmt("%.3g", options.edge_m * 1e3) + " mm";
   } else {
-    r.edge_target_m = target_edge_for(options.probe_radius_m, diag);
-    r.edge_rule = r.edge_target_m < options.probe_radius_m / 4
-                      ? "1/40 of the bounding-box diagonal (" + fmt("%.3g", diag * 1e3) +
-                            " mm), shorter than a quarter of the probe radius " +
-                            fmt("%.3g", options.probe_radius_m * 1e3) + " mm"
-                      : "a quarter of the probe radius " + fmt("%.3g", options.probe_radius_m * 1e3) + " mm";
+    r.edge_target_m = target_edge_for(options.probe_radius_m, diag, options.lesion_radius_m);
+    const std::string quarter = "a quarter of the probe radius " + fmt("%.3g", options.probe_radius_m * 1e3) + " mm";
+    if (options.lesion_radius_m > 0 && r.edge_target_m == options.lesion_radius_m / 2 &&
+        r.edge_target_m < options.probe_radius_m / 4)
+      r.edge_rule = "half the smallest lesion's radius " + fmt("%.3g", options.lesion_radius_m * 1e3) +
+                    " mm, shorter than " + quarter;
+    else if (r.edge_target_m < options.probe_radius_m / 4)
+      r.edge_rule = "1/40 of the bounding-box diagonal (" + fmt("%.3g", diag * 1e3) + " mm), shorter than " + quarter;
+    else
+      r.edge_rule = quarter;
   }
   double L = r.edge_target_m;
   r.edge_requested_m = L;

@@ -50,6 +50,10 @@ struct PrepOptions {
   double edge_m = 0;
   /// Radius of the probe tip the mesh is prepared for, m (used when edge_m is 0).
   double probe_radius_m = kDefaultProbeRadius;
+  /// Radius of the smallest lesion the mesh must resolve, m (a scenario's
+  /// smallest lesion semi-axis; 0: none). Used when edge_m is 0: the edge is
+  /// then also at most half of it, so a lesion spans several vertices.
+  double lesion_radius_m = 0;
   /// A component whose area is below this fraction of the largest component's
   /// area is a speck and is dropped.
   double speck_area_fraction = 0.01;
@@ -94,8 +98,10 @@ struct PrepOptions {
 /// The rule that picks the edge length from the probe radius: a quarter of
 /// the radius (so a contact's support reaches several rings of vertices),
 /// never more than 1/40 of the bounding-box diagonal (so a small organ keeps
-/// its shape). Returns metres; `diagonal_m` is the organ's bounding-box diagonal.
-double target_edge_for(double probe_radius_m, double diagonal_m);
+/// its shape) nor, when `lesion_radius_m` > 0, more than half the smallest
+/// lesion's radius (so the lesion spans several vertices). Returns metres;
+/// `diagonal_m` is the organ's bounding-box diagonal, m.
+double target_edge_for(double probe_radius_m, double diagonal_m, double lesion_radius_m = 0);
 
 /// A component dropped as a speck.
 struct DroppedComponent {

@@ -129,6 +129,7 @@ mesh::Organ load_scenario_organ(const OrganRef& ref, const std::string& file, co
   o.unit_m = bundled ? 1.0 : mesh::unit_metres(mesh::parse_mesh_unit(ref.unit));
   o.edge_m = spec.edge;
   o.probe_radius_m = spec.edge > 0 ? prep::kDefaultProbeRadius : spec.probe_radius;
+  o.lesion_radius_m = spec.edge > 0 ? 0.0 : spec.lesion_radius;
   o.speck_area_fraction = spec.speck_area_fraction;
   o.max_hole_area_fraction = spec.max_hole_area_fraction;
   o.allow_autorefine = spec.autorefine;

@@ -265,6 +265,7 @@ struct PrepRule {
 constexpr PrepRule kPrepRules[] = {
     {"edge_mm", "a length from 0.1 to 100 millimetres", kMinPrepEdge * 1e3, kMaxPrepEdge * 1e3, false, false, false},
     {"probe_radius_mm", "a positive length up to 100 millimetres", 0, kMaxPrepProbeRadius * 1e3, true, false, false},
+    {"lesion_radius_mm", "a positive length up to 100 millimetres", 0, kMaxPrepProbeRadius * 1e3, true, false, false},
     {"speck_area_fraction", "a fraction in [0, 1)", 0, 1, false, true, false},
     {"max_hole_area_fraction", "a fraction in (0, 1]", 0, 1, true, false, false},
     {"remesh_iterations", "an integer from 1 to 50", 1, 50, false, false, true},
@@ -285,6 +286,7 @@ bool prep_ok(const PrepRule& rule, double x) {
 double prep_value(const PrepSpec& p, std::string_view key) {
   if (key == "edge_mm") return p.edge * 1e3;
   if (key == "probe_radius_mm") return p.probe_radius * 1e3;
+  if (key == "lesion_radius_mm") return p.lesion_radius * 1e3;
   if (key == "speck_area_fraction") return p.speck_area_fraction;
   if (key == "max_hole_area_fraction") return p.max_hole_area_fraction;
   if (key == "remesh_iterations") return p.remesh_iterations;
@@ -299,6 +301,7 @@ double prep_value(const PrepSpec& p, std::string_view key) {
 void set_prep_value(PrepSpec& p, std::string_view key, double x) {
   if (key == "edge_mm") p.edge = x * 1e-3;
   else if (key == "probe_radius_mm") p.probe_radius = x * 1e-3;
+  else if (key == "lesion_radius_mm") p.lesion_radius = x * 1e-3;
   else if (key == "speck_area_fraction") p.speck_area_fraction = x;
   else if (key == "max_hole_area_fraction") p.max_hole_area_fraction = x;
   else if (key == "remesh_iterations") p.remesh_iterations = static_cast<int>(x);
@@ -312,15 +315,18 @@ void set_prep_value(PrepSpec& p, std::string_view key, double x) {
 
 const char* const kPrepLengthChoice = "missing required key \"edge_mm\" (or \"probe_radius_mm\")";
 const char* const kPrepLengthBoth = "expected \"edge_mm\" or \"probe_radius_mm\", not both";
+const char* const kPrepLesionWithEdge =
+    "\"lesion_radius_mm\" chooses the edge with \"probe_radius_mm\"; with \"edge_mm\" the edge is given";
 
 PrepSpec read_prep(const Reader& r, const Json& v, const std::string& ptr) {
   r.object(v, ptr,
-           {"edge_mm", "probe_radius_mm", "speck_area_fraction", "max_hole_area_fraction", "autorefine", "local_repair",
+           {"edge_mm", "probe_radius_mm", "lesion_radius_mm", "speck_area_fraction", "max_hole_area_fraction", "autorefine", "local_repair",
             "remesh_iterations", "relaxation_steps", "feature_angle_deg", "refine_rounds", "fit_rounds", "fit_factor",
             "fit_max_triangles"});
   const bool edge = r.find(v, "edge_mm") != nullptr, probe = r.find(v, "probe_radius_mm") != nullptr;
   if (!edge && !probe) r.fail(ptr, kPrepLengthChoice);
   if (edge && probe) r.fail(ptr, kPrepLengthBoth);
+  if (edge && r.find(v, "lesion_radius_mm")) r.fail(ptr, kPrepLesionWithEdge);
   PrepSpec p;
   for (const PrepRule& rule : kPrepRules) {
     const Json* x = r.find(v, rule.key);
@@ -779,6 +785,7 @@ Json prep_json(const PrepSpec& p) {
   for (const PrepRule& rule : kPrepRules) {
     const std::string_view key = rule.key;
     if ((key == "edge_mm" && p.edge <= 0) || (key == "probe_radius_mm" && (p.edge > 0 || p.probe_radius <= 0))) continue;
+    if (key == "lesion_radius_mm" && (p.edge > 0 || p.lesion_radius <= 0)) continue;  // none: not written
     o[rule.key] = num(prep_value(p, key));
     if (key == "max_hole_area_fraction") {  // the booleans after the repair limits
       o["autorefine"] = p.autorefine;
@@ -1241,12 +1248,25 @@ void save_scenario(const Scenario& s, const fs::path& file) {
   }
 }
 
+double smallest_lesion_radius(const Scenario& s) {
+  double r = 0;
+  auto take = [&r](double x) {
+    if (x > 0 && (r == 0 || x < r)) r = x;
+  };
+  for (const LesionSpec& l : s.lesions) take(l.lesion.semi_axes.minCoeff());
+  if (s.random_lesions.count > 0) take(s.random_lesions.radius_min);
+  return r;
+}
+
 std::string prep_spec_error(const PrepSpec& p) {
   if (p.edge > 0 && p.probe_radius > 0) return kPrepLengthBoth;
   if (p.edge == 0 && p.probe_radius == 0) return kPrepLengthChoice;
+  if (p.edge > 0 && p.lesion_radius != 0) return kPrepLesionWithEdge;
   for (const PrepRule& rule : kPrepRules) {
     const std::string_view key = rule.key;
-    if ((key == "edge_mm" && p.edge == 0) || (key == "probe_radius_mm" && p.probe_radius == 0)) continue;
+    if ((key == "edge_mm" && p.edge == 0) || (key == "probe_radius_mm" && p.probe_radius == 0) ||
+        (key == "lesion_radius_mm" && p.lesion_radius == 0))
+      continue;
     const double x = prep_value(p, key);
     if (!prep_ok(rule, x)) return std::string(rule.key) + ": expected " + rule.what + ", got " + shown(num(x));
   }
@@ -1269,6 +1289,7 @@ std::string summary(const Scenario& s) {
     o << "organ preparation: ";
     if (p->edge > 0) o << "edge " << mm(p->edge) << " mm";
     else o << "edge from a probe radius of " << mm(p->probe_radius) << " mm";
+    if (p->edge <= 0 && p->lesion_radius > 0) o << " and a smallest lesion radius of " << mm(p->lesion_radius) << " mm";
     o << ", " << p->remesh_iterations << " remeshing iterations, " << p->fit_rounds << " fit rounds\n";
   }
   o << "probe: tip radius " << mm(s.probe.tip_radius) << " mm, " << kShapeNames[static_cast<int>(s.probe.shape.kind)]

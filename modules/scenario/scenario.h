@@ -43,7 +43,8 @@ class ScenarioError : public std::runtime_error {
 /// Lengths in m. Exactly one of edge and probe_radius is set (> 0).
 struct PrepSpec {
   double edge = 0;                    ///< target edge length, m (0: from probe_radius)
-  double probe_radius = 0;            ///< m: the edge is prep::target_edge_for(it, the organ's diagonal)
+  double probe_radius = 0;            ///< m: the edge is prep::target_edge_for(it, the organ's diagonal, lesion_radius)
+  double lesion_radius = 0;           ///< m, with probe_radius only: the smallest lesion to resolve (0: none)
   double speck_area_fraction = 0.01;  ///< components below this fraction of the largest one's area go
   double max_hole_area_fraction = 0.2;///< a hole patch larger than this fraction of the surface: refused
   bool autorefine = true;             ///< self-intersection repairs tried before the alpha wrap
@@ -165,6 +166,13 @@ struct Scenario {
   std::filesystem::path file;            ///< where it was read from (not written)
   friend bool operator==(const Scenario&, const Scenario&) = default;
 };
+
+/// The radius of the smallest lesion `s` can hold, m: the smallest semi-axis
+/// of its lesions and, with random lesions, their smallest radius; 0 when it
+/// has none. What organ.prep's lesion_radius is set from, so the prepared
+/// edge resolves every lesion (prep::target_edge_for).
+double smallest_lesion_radius(const Scenario& s);
+
 
 /// Largest scenario file load_scenario reads, bytes.
 inline constexpr std::uintmax_t kMaxScenarioBytes = 16u << 20;

@@ -261,6 +261,25 @@ TEST_F(Prep, EdgeFromProbeRadiusFollowsTheRule) {
   expect_targets(r);
 }
 
+TEST_F(Prep, TheSmallestLesionBoundsTheEdge) {
+  EXPECT_DOUBLE_EQ(target_edge_for(0.008, 0.2, 0.003), 0.0015);  // half the lesion's radius
+  EXPECT_DOUBLE_EQ(target_edge_for(0.008, 0.2, 0.010), 0.002);   // a large lesion: the probe's rule
+  EXPECT_DOUBLE_EQ(target_edge_for(0.008, 0.04, 0.003), 0.001);  // the diagonal's rule, shorter still
+  EXPECT_DOUBLE_EQ(target_edge_for(0.008, 0.2, 0.0), 0.002);     // none
+  PrepOptions o;
+  o.unit_m = 1.0;
+  o.fit_rounds = 0;
+  o.probe_radius_m = 0.016;   // the probe alone: 4 mm
+  o.lesion_radius_m = 0.006;  // half of it: 3 mm
+  PrepReport r;
+  prepare_file(write(dir, "sphere.ply", sphere()), o, &r);
+  EXPECT_DOUBLE_EQ(r.edge_target_m, 0.003);
+  EXPECT_EQ(r.edge_rule, "half the smallest lesion's radius 6 mm, shorter than a quarter of the probe radius 16 mm");
+  EXPECT_NEAR(r.after.edge_mean_m, 0.003, 0.0006);
+  o.lesion_radius_m = -0.001;
+  EXPECT_THROW(prepare_file(write(dir, "sphere.ply", sphere()), o, &r), PrepError);
+}
+
 TEST_F(Prep, VerticesAndTrianglesAreInSpatialOrder) {
   // Neighbours get nearby indices: the mean index gap along edges is a small
   // fraction of what a random order gives (a third of the vertex count).

@@ -49,6 +49,27 @@ TEST(PrepCli, PreparesWritesAndReports) {
   EXPECT_NE(json.find("\"format\": \"palpa.prep-report\""), std::string::npos);
 }
 
+// --scenario takes the smallest lesion radius from a scenario (the shipped
+// breast's nodules have radii 6 and 4 mm): with a 16 mm probe the probe's
+// rule alone gives 4 mm, the smaller nodule 2 mm.
+TEST(PrepCli, TheScenariosSmallestLesionChoosesTheEdge) {
+  const auto dir = test::temp_dir("prep_cli_lesion");
+  const auto in = dir / "sphere.ply", out = dir / "out.ply";
+  mesh::save_mesh(mesh::make_sphere(600, 0.03), in);
+  const auto scenario = test::project_data_dir() / "scenarios" / "breast_two_nodules.json";
+  const ToolRun r = run(in.string() + " " + out.string() + " --unit m --probe-radius-mm 16 --scenario " +
+                        scenario.string() + " --fit-rounds 0 --no-cache");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find(scenario.string() + ": smallest lesion radius 4 mm"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("edge target   2 mm (half the smallest lesion's radius 4 mm, shorter than a quarter of the "
+                          "probe radius 16 mm)"),
+            std::string::npos)
+      << r.output;
+  const ToolRun bad = run(in.string() + " " + out.string() + " --unit m --scenario " + (dir / "none.json").string());
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_NE(bad.output.find("none.json"), std::string::npos) << bad.output;
+}
+
 TEST(PrepCli, RefusesAnOpenSheetNamingTheFile) {
   const auto dir = test::temp_dir("prep_cli_sheet");
   const auto in = dir / "sheet.ply";
@@ -69,6 +90,13 @@ TEST(PrepCli, BadArgumentsSayWhy) {
   r = run("a.ply");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.output.substr(0, r.output.find('\n')), "palpa-prep: needs an input and an output file");
+  r = run("a.ply b.ply --edge-mm 2 --lesion-radius-mm 3");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.output.substr(0, r.output.find('\n')),
+            "palpa-prep: --lesion-radius-mm and --scenario choose the edge with the probe radius; --edge-mm gives it");
+  r = run("a.ply b.ply --lesion-radius-mm 3 --scenario s.json");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.output.substr(0, r.output.find('\n')), "palpa-prep: give --lesion-radius-mm or --scenario, not both");
   r = run("a.ply b.ply --unit furlong");
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(r.output.substr(0, r.output.find('\n')),

@@ -79,10 +79,35 @@ TEST(ScenarioPrep, SaveLoadSaveGivesTheSameTextWithEveryParameter) {
                             "fit_factor", "fit_max_triangles"})
       EXPECT_NE(text.find(std::string("\"") + key + "\""), std::string::npos) << key << " in\n" << text;
   }
+  // The smallest lesion goes with the probe radius, and is written only when set.
+  const Scenario lesion = parse_scenario(with_prep(R"({"probe_radius_mm": 8, "lesion_radius_mm": 3})").dump(), "case.json");
+  EXPECT_DOUBLE_EQ(lesion.organ.prep->lesion_radius, 0.003);
+  EXPECT_NE(to_json_text(lesion).find("\"probe_radius_mm\": 8,\n      \"lesion_radius_mm\": 3,"), std::string::npos)
+      << to_json_text(lesion);
+  EXPECT_EQ(parse_scenario(to_json_text(lesion), "case.json"), lesion);
   const std::string text = to_json_text(parse_scenario(with_prep(R"({"edge_mm": 2})").dump(), "case.json"));
   EXPECT_NE(text.find("\"prep\": {\n      \"edge_mm\": 2,\n      \"speck_area_fraction\": 0.01,"), std::string::npos)
       << text;
   EXPECT_EQ(text.find("probe_radius_mm"), std::string::npos);
+  EXPECT_EQ(text.find("lesion_radius_mm"), std::string::npos);
+}
+
+// The smallest lesion of a scenario: the smallest semi-axis of its lesions
+// and the random lesions' smallest radius.
+TEST(ScenarioPrep, TheSmallestLesionRadiusIsTheSmallestSemiAxisOrRandomRadius) {
+  Scenario s = parse_scenario(valid_scenario().dump(), "case.json");
+  s.lesions.clear();
+  s.random_lesions.count = 0;
+  EXPECT_EQ(smallest_lesion_radius(s), 0.0);
+  LesionSpec a;
+  a.lesion.semi_axes = Vec3(0.006, 0.004, 0.005);
+  LesionSpec b;
+  b.lesion.semi_axes = Vec3::Constant(0.0045);
+  s.lesions = {a, b};
+  EXPECT_DOUBLE_EQ(smallest_lesion_radius(s), 0.004);
+  s.random_lesions.count = 2;
+  s.random_lesions.radius_min = 0.003;
+  EXPECT_DOUBLE_EQ(smallest_lesion_radius(s), 0.003);
 }
 
 TEST(ScenarioPrep, EachBadValueGivesItsExactMessage) {
@@ -109,8 +134,14 @@ TEST(ScenarioPrep, EachBadValueGivesItsExactMessage) {
       {R"({"edge_mm": 2, "fit_max_triangles": 10})",
        "case.json: /organ/prep/fit_max_triangles: expected an integer from 1000 to 5000000, got 10"},
       {R"({"edge_mm": 2, "autorefine": "yes"})", "case.json: /organ/prep/autorefine: expected true or false, got \"yes\""},
+      {R"({"edge_mm": 2, "lesion_radius_mm": 3})",
+       "case.json: /organ/prep: \"lesion_radius_mm\" chooses the edge with \"probe_radius_mm\"; with \"edge_mm\" the "
+       "edge is given"},
+      {R"({"probe_radius_mm": 8, "lesion_radius_mm": 0})",
+       "case.json: /organ/prep/lesion_radius_mm: expected a positive length up to 100 millimetres, got 0"},
       {R"({"edge": 2})",
-       "case.json: /organ/prep/edge: unknown key (expected one of: edge_mm, probe_radius_mm, speck_area_fraction, "
+       "case.json: /organ/prep/edge: unknown key (expected one of: edge_mm, probe_radius_mm, lesion_radius_mm, "
+       "speck_area_fraction, "
        "max_hole_area_fraction, autorefine, local_repair, remesh_iterations, relaxation_steps, feature_angle_deg, "
        "refine_rounds, fit_rounds, fit_factor, fit_max_triangles)"},
   };
@@ -162,6 +193,7 @@ TEST(ScenarioPrep, DefaultsArePrepsDefaults) {
   EXPECT_EQ(s.remesh_iterations, o.remesh_iterations);
   EXPECT_EQ(s.relaxation_steps, o.relaxation_steps);
   EXPECT_EQ(s.feature_angle_deg, o.feature_angle_deg);
+  EXPECT_EQ(s.lesion_radius, o.lesion_radius_m);
   EXPECT_EQ(s.refine_rounds, o.refine_rounds);
   EXPECT_EQ(s.fit_rounds, o.fit_rounds);
   EXPECT_EQ(s.fit_factor, o.fit_factor);
