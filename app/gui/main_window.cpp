@@ -128,6 +128,11 @@ MainWindow::MainWindow(QWidget* parent) : QMainWindow(parent), vtk_(std::make_un
 
 MainWindow::~MainWindow() {
   frame_timer_.stop();
+  // QWidget's destructor deletes the children after this one has run: a
+  // signal they send then (a dock's visibilityChanged as it hides) must not
+  // reach a slot of this window, which is no longer a MainWindow (UBSan
+  // found the Authoring dock's). Their connections to it go now.
+  for (QObject* child : findChildren<QObject*>()) QObject::disconnect(child, nullptr, this, nullptr);
   if (author_tools_) author_tools_->attach(nullptr, 0);  // its handles go before the renderers
   if (replay_panel_) replay_panel_->close();
   replay_probe_views_.clear();

@@ -203,8 +203,8 @@ TEST_F(WindowParts, RemovingTheLastProbeClearsThePlotAndReadouts) {
   ASSERT_TRUE(w->add_device_probe("scripted", q("file=" + press_file(*w, "gui_plot_clear").string())));
   const int id = w->workbench().selected_id();
   ForcePlot* plot = w->force_plot();
-  // Under ThreadSanitizer the loop runs late and the watchdog holds the force at zero (as it must).
-#if defined(__SANITIZE_THREAD__)
+  // Under the sanitizers the loop runs late and the watchdog holds the force at zero (as it must).
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
   constexpr bool kSlowBuild = true;
 #else
   constexpr bool kSlowBuild = false;
