@@ -12,6 +12,7 @@
 #include "app/gui/main_window.h"
 #include "app/gui/scenario_document.h"
 #include "common/test_support.h"
+#include "gui_wait.h"
 #include "render/surface_view.h"
 #include "scenario/scenario.h"
 
@@ -21,7 +22,6 @@
 #include <QComboBox>
 #include <QDockWidget>
 #include <QDoubleSpinBox>
-#include <QElapsedTimer>
 #include <QLabel>
 #include <QMessageBox>
 #include <QMouseEvent>
@@ -67,13 +67,7 @@ class AuthoringTest : public ::testing::Test {
   }
 
   static bool wait_until(const std::function<bool()>& done, int timeout_ms = 20000) {
-    QElapsedTimer t;
-    t.start();
-    while (!done()) {
-      if (t.elapsed() > timeout_ms) return false;
-      QTest::qWait(20);
-    }
-    return true;
+    return gui_test::wait_until(done, timeout_ms);
   }
 
   // The rest point under viewport position `p` (logical pixels), if on the organ.

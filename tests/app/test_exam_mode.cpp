@@ -14,6 +14,7 @@
 #include "app/gui/help.h"
 #include "app/gui/main_window.h"
 #include "common/test_support.h"
+#include "gui_wait.h"
 #include "mesh/generate.h"
 #include "mesh/io.h"
 #include "record/session_file.h"
@@ -29,7 +30,6 @@
 #include <QDialogButtonBox>
 #include <QDockWidget>
 #include <QDoubleSpinBox>
-#include <QElapsedTimer>
 #include <QLabel>
 #include <QListWidget>
 #include <QMenu>
@@ -63,13 +63,7 @@ class ExamModeTest : public ::testing::Test {
     return w;
   }
   static bool wait_until(const std::function<bool()>& done, int timeout_ms = 20000) {
-    QElapsedTimer t;
-    t.start();
-    while (!done()) {
-      if (t.elapsed() > timeout_ms) return false;
-      QTest::qWait(20);
-    }
-    return true;
+    return gui_test::wait_until(done, timeout_ms);
   }
   static std::filesystem::path shipped(const std::string& name) {
     return palpa::test::project_data_dir() / "scenarios" / name;

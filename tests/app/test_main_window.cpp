@@ -13,6 +13,7 @@
 #include "app/gui/main_window.h"
 #include "haptics/safety.h"
 #include "common/test_support.h"
+#include "gui_wait.h"
 #include "mesh/generate.h"
 #include "mesh/io.h"
 #include "mesh/organ.h"
@@ -32,7 +33,6 @@
 #include <QGroupBox>
 #include <QPushButton>
 #include <QDropEvent>
-#include <QElapsedTimer>
 #include <QLabel>
 #include <QMimeData>
 #include <QMouseEvent>
@@ -89,13 +89,7 @@ class MainWindowTest : public ::testing::Test {
 
   // Lets the event loop run until `done` holds or `timeout_ms` passes.
   static bool wait_until(const std::function<bool()>& done, int timeout_ms = 20000) {
-    QElapsedTimer t;
-    t.start();
-    while (!done()) {
-      if (t.elapsed() > timeout_ms) return false;
-      QTest::qWait(20);
-    }
-    return true;
+    return gui_test::wait_until(done, timeout_ms);
   }
 
   static void drag(QWidget* vp, QPoint from, QPoint to, int steps) {

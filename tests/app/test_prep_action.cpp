@@ -11,12 +11,12 @@
 #include "app/gui/prep_action.h"
 #include "app/gui/scenario_document.h"
 #include "common/test_support.h"
+#include "gui_wait.h"
 #include "render/surface_view.h"
 #include "scenario/scenario.h"
 
 #include <QAction>
 #include <QApplication>
-#include <QElapsedTimer>
 #include <QProgressDialog>
 #include <QPushButton>
 #include <QStatusBar>
@@ -61,13 +61,7 @@ class PrepActionTest : public ::testing::Test {
   }
 
   static bool wait_until(const std::function<bool()>& done, int timeout_ms = 300000) {
-    QElapsedTimer t;
-    t.start();
-    while (!done()) {
-      if (t.elapsed() > timeout_ms) return false;
-      QTest::qWait(20);
-    }
-    return true;
+    return gui_test::wait_until(done, timeout_ms);
   }
 
   // A coarse, unfitted preparation: quick on the default organ.

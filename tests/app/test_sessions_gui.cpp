@@ -15,12 +15,12 @@
 #include "app/gui/session_player.h"
 #include "app/replay/session_job.h"
 #include "common/test_support.h"
+#include "gui_wait.h"
 #include "record/session_file.h"
 #include "render/surface_view.h"
 
 #include <QAction>
 #include <QApplication>
-#include <QElapsedTimer>
 #include <QFileInfo>
 #include <QLabel>
 #include <QLineEdit>
@@ -74,13 +74,7 @@ class SessionsGuiTest : public ::testing::Test {
   }
 
   static bool wait_until(const std::function<bool()>& done, int timeout_ms = 30000) {
-    QElapsedTimer t;
-    t.start();
-    while (!done()) {
-      if (t.elapsed() > timeout_ms) return false;
-      QTest::qWait(10);
-    }
-    return true;
+    return gui_test::wait_until(done, timeout_ms, 10);
   }
 
   // Records at least `ticks` ticks while the window's mouse probe presses

@@ -8,6 +8,7 @@
 #include "app/gui/force_plot.h"
 #include "app/gui/main_window.h"
 #include "common/test_support.h"
+#include "gui_wait.h"
 #include "render/probe_view.h"
 
 #include <vtkCallbackCommand.h>
@@ -22,7 +23,6 @@
 #include <QComboBox>
 #include <QDialogButtonBox>
 #include <QDoubleSpinBox>
-#include <QElapsedTimer>
 #include <QLabel>
 #include <QLineEdit>
 #include <QListWidget>
@@ -55,13 +55,7 @@ class WindowParts : public ::testing::Test {
     return w;
   }
   static bool wait_until(const std::function<bool()>& done, int timeout_ms = 20000) {
-    QElapsedTimer t;
-    t.start();
-    while (!done()) {
-      if (t.elapsed() > timeout_ms) return false;
-      QTest::qWait(20);
-    }
-    return true;
+    return gui_test::wait_until(done, timeout_ms);
   }
   // A trajectory that presses vertex 0 of the organ 4 mm deep and holds.
   static std::filesystem::path press_file(MainWindow& w, const std::string& name) {
