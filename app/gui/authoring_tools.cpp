@@ -96,21 +96,22 @@ Vec3 AuthoringTools::handle_point(std::size_t lesion) const {
   return l.from_surface ? l.surface_point : l.lesion.centre;
 }
 
-void AuthoringTools::add_view(const Vec3& centre, double radius, double r, double g, double b, double opacity) {
+std::unique_ptr<render::EllipsoidView> AuthoringTools::make_view(const Vec3& centre, double radius, double r, double g,
+                                                                 double b, double opacity) const {
   auto v = std::make_unique<render::EllipsoidView>(centre, Vec3::Constant(radius));
   v->set_color(r, g, b, opacity);
   v->set_transform(transform_);
   v->add_to(renderer_);
-  handles_.push_back(std::move(v));
+  return v;
+}
+
+void AuthoringTools::add_view(const Vec3& centre, double radius, double r, double g, double b, double opacity) {
+  handles_.push_back(make_view(centre, radius, r, g, b, opacity));
 }
 
 void AuthoringTools::add_scene_view(const Vec3& centre, double radius, double r, double g, double b,
                                     double opacity) {
-  auto v = std::make_unique<render::EllipsoidView>(centre, Vec3::Constant(radius));
-  v->set_color(r, g, b, opacity);
-  v->set_transform(transform_);
-  v->add_to(renderer_);
-  scene_views_.push_back(std::move(v));
+  scene_views_.push_back(make_view(centre, radius, r, g, b, opacity));
 }
 
 void AuthoringTools::clear_views() {

@@ -134,6 +134,8 @@ class AuthoringTools : public QObject {
   void place_lesion(const Vec3& point);
   void paint_at(const Vec3& point);
   void finish_stroke();
+  std::unique_ptr<render::EllipsoidView> make_view(const Vec3& centre, double radius, double r, double g, double b,
+                                                   double opacity) const;
   void add_view(const Vec3& centre, double radius, double r, double g, double b, double opacity);
   void add_scene_view(const Vec3& centre, double radius, double r, double g, double b, double opacity);
   void clear_views();
