@@ -203,11 +203,7 @@ TEST_F(MainWindowTest, AScriptedDeviceProbeDrivesAContact) {
   // deadlines, and the safety chain rightly holds the force at zero while the
   // loop or the model is late: there the test accepts a held force only when
   // the flags say the watchdog held it.
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-  constexpr bool kSlowBuild = true;
-#else
-  constexpr bool kSlowBuild = false;
-#endif
+  using gui_test::kSlowBuild;
   const std::uint32_t late = haptics::kSafetyLoopLate | haptics::kSafetyModelLate;
   bool held_late = false;
   EXPECT_TRUE(wait_until([&] {

@@ -41,16 +41,7 @@
 namespace palpa::app {
 namespace {
 
-// ThreadSanitizer (and, under load, AddressSanitizer) runs the real-time loop many times slower than its
-// deadlines: the safety chain then holds forces at zero (kSafetyLoopLate),
-// as it must. Tests that drive a scripted device in wall time accept that
-// there, and only there.
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-constexpr bool kSlowBuild = true;
-#else
-constexpr bool kSlowBuild = false;
-#endif
-
+using gui_test::kSlowBuild;  // the sanitizer builds: see gui_wait.h
 
 class SessionsGuiTest : public ::testing::Test {
  protected:

@@ -198,11 +198,7 @@ TEST_F(WindowParts, RemovingTheLastProbeClearsThePlotAndReadouts) {
   const int id = w->workbench().selected_id();
   ForcePlot* plot = w->force_plot();
   // Under the sanitizers the loop runs late and the watchdog holds the force at zero (as it must).
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-  constexpr bool kSlowBuild = true;
-#else
-  constexpr bool kSlowBuild = false;
-#endif
+  using gui_test::kSlowBuild;
   const std::uint32_t late = haptics::kSafetyLoopLate | haptics::kSafetyModelLate;
   ASSERT_TRUE(wait_until([&] {
     const ProbeReadout& out = w->workbench().probe(id)->output;
