@@ -1,6 +1,7 @@
 // The authoring panel (authoring_panel.h).
 
 #include "app/gui/authoring_panel.h"
+#include "app/gui/spin_box.h"
 
 #include <QAbstractButton>
 #include <QCheckBox>
@@ -33,15 +34,7 @@ const char* const kVisibilityText[] = {"hidden", "shown", "after exam"};
 
 QDoubleSpinBox* spin(const char* name, double lo, double hi, double step, int decimals, const QString& suffix,
                      const QString& tip) {
-  auto* s = new QDoubleSpinBox;
-  s->setObjectName(name);
-  s->setRange(lo, hi);
-  s->setSingleStep(step);
-  s->setDecimals(decimals);
-  s->setSuffix(suffix);
-  s->setKeyboardTracking(false);
-  s->setToolTip(tip);
-  return s;
+  return make_spin_box(name, lo, hi, step, decimals, suffix, tip);
 }
 
 QComboBox* visibility_box(const char* name, const QString& tip) {

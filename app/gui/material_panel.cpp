@@ -1,6 +1,7 @@
 // The Material dock's panel (moved out of main_window.cpp).
 
 #include "app/gui/material_panel.h"
+#include "app/gui/spin_box.h"
 
 #include <QComboBox>
 #include <QDoubleSpinBox>
@@ -45,14 +46,7 @@ MaterialPanel::MaterialPanel(QWidget* parent) : QWidget(parent) {
   outer->addLayout(form);
   auto spin = [&](const char* name, double lo, double hi, double step, int decimals, const char* suffix,
                   const QString& tip) {
-    auto* s = new QDoubleSpinBox;
-    s->setObjectName(name);
-    s->setRange(lo, hi);
-    s->setSingleStep(step);
-    s->setDecimals(decimals);
-    s->setSuffix(suffix);
-    s->setKeyboardTracking(false);
-    s->setToolTip(tip);
+    QDoubleSpinBox* s = make_spin_box(name, lo, hi, step, decimals, suffix, tip);
     connect(s, qOverload<double>(&QDoubleSpinBox::valueChanged), this, &MaterialPanel::apply_material);
     return s;
   };
