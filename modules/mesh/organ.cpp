@@ -1,6 +1,7 @@
 // Organ loading with unit handling.
 
 #include "mesh/organ.h"
+#include "mesh/spatial_order.h"
 
 #include "mesh/generate.h"
 
@@ -155,8 +156,9 @@ Organ load_organ(const std::filesystem::path& path, MeshUnit unit) {
   }
   if (o.unit_m != 1.0)
     for (Vec3& p : m.positions) p *= o.unit_m;
+  o.note = topology_note(m);  // names edges in the file's order
+  reorder_spatially(m);
   o.facts = analyse(m);
-  o.note = topology_note(m);
   o.mesh = std::make_shared<const SurfaceMesh>(std::move(m));
   return o;
 }
@@ -172,7 +174,9 @@ Organ load_default_organ() {
   Organ o;
   o.name = "default organ";
   o.note = "default organ generated (" + path.string() + " not found)";
-  o.mesh = std::make_shared<const SurfaceMesh>(make_organ(40000));
+  SurfaceMesh m = make_organ(40000);
+  reorder_spatially(m);
+  o.mesh = std::make_shared<const SurfaceMesh>(std::move(m));
   o.facts = analyse(*o.mesh);
   return o;
 }

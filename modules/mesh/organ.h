@@ -48,7 +48,8 @@ std::filesystem::path default_organ_path();
 inline constexpr double kMinOrganSize = 5e-3;
 inline constexpr double kMaxOrganSize = 1.0;
 
-/// Loads, cleans (largest component only) and scales a mesh file. Throws
+/// Loads, cleans (largest component only), scales and numbers in spatial
+/// order (reorder_spatially: nearby vertices adjacent in memory) a mesh file. Throws
 /// MeshError naming the file, and when the organ is not kMinOrganSize ..
 /// kMaxOrganSize across: "<file>: the organ is 138 m across with the unit m;
 /// an organ is 5 mm to 1 m across: with the unit mm it is 13.8 cm" (or ", and
