@@ -12,13 +12,17 @@
 //
 // Usage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]
 //                         [--deform-rate HZ (100)] [--spin-us US] [--no-load-run] [--load-only]
+//                         [--as-built-order]
 //
 // --spin-us: busy-wait this long before each tick (at most half a period)
 // instead of sleeping to the deadline, which hides wake-up latency.
+// --as-built-order: keep make_organ's vertex order instead of the spatial
+// order (mesh::reorder_spatially) every loaded organ gets.
 
 #include "devices/loader.h"
 #include "haptics/loop.h"
 #include "mesh/generate.h"
+#include "mesh/spatial_order.h"
 #include "render/scene.h"
 #include "render/surface_view.h"
 
@@ -58,6 +62,7 @@ struct Options {
   bool load_run = true;
   bool load_only = false;
   double spin_us = 0;
+  bool spatial_order = true;  // mesh::reorder_spatially, as load_organ numbers every organ
   int width = 640;   // offscreen frame, pixels
   int height = 480;
 };
@@ -65,7 +70,8 @@ struct Options {
 [[noreturn]] void usage(const char* why) {
   std::fprintf(stderr,
                "palpa-loop-bench: %s\nusage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]\n"
-               "                        [--deform-rate HZ] [--spin-us US] [--no-load-run] [--load-only]\n",
+               "                        [--deform-rate HZ] [--spin-us US] [--no-load-run] [--load-only]\n"
+               "                        [--as-built-order]\n",
                why);
   std::exit(2);
 }
@@ -96,6 +102,8 @@ Options parse(int argc, char** argv) {
       o.load_run = false;
     } else if (a == "--load-only") {
       o.load_only = true;
+    } else if (a == "--as-built-order") {
+      o.spatial_order = false;
     } else {
       usage(("unknown option " + a).c_str());
     }
@@ -328,6 +336,7 @@ int main(int argc, char** argv) {
   Scene scene;
   auto t0 = std::chrono::steady_clock::now();
   scene.mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_organ(o.vertices));
+  if (o.spatial_order) mesh::reorder_spatially(*scene.mesh);
   deform::Material m;
   m.stiffness = 300;  // N/m per vertex
   m.damping = 2;

@@ -9,6 +9,7 @@
 #include "haptics/session.h"
 #include "mesh/generate.h"
 #include "mesh/io.h"
+#include "mesh/spatial_order.h"
 
 #include <Eigen/Geometry>
 
@@ -167,6 +168,7 @@ int main(int argc, char** argv) {
       lo.unit_m = o.unit_m;
       *mesh = palpa::mesh::load_mesh(o.mesh, lo);
     }
+    palpa::mesh::reorder_spatially(*mesh);  // as load_organ numbers every organ
   } catch (const std::exception& e) {
     std::fprintf(stderr, "palpa-palpate: %s\n", e.what());
     return 1;

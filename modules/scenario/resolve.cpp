@@ -3,6 +3,7 @@
 #include "scenario/resolve.h"
 
 #include "collision/vertex_tree.h"
+#include "mesh/spatial_order.h"
 #if PALPA_HAVE_PREP
 #include "prep/prep.h"
 #endif
@@ -177,6 +178,7 @@ mesh::Organ load_scenario_organ(const OrganRef& ref, const std::string& file, co
   sum.from_cache = report.from_cache;
   sum.unmet = prep::unmet_targets(report);
   sum.warnings = report.warnings;
+  mesh::reorder_spatially(m);  // as load_organ numbers every organ
   organ.facts = mesh::analyse(m);
   organ.note = sum.text();
   organ.mesh = std::make_shared<const mesh::SurfaceMesh>(std::move(m));
