@@ -233,9 +233,14 @@ class HertzModel final : public LocalModel {
     const double y = ra / (w * m.hertz) + d0 * std::sqrt(d0);
     const double pw = std::cbrt(y * y) - d0;
     double h = std::max(0.0, std::min(lin, pw));
+    const double d0r = d0 * std::sqrt(d0);
     for (int it = 0; it < kNewtonIterations; ++it) {
-      const double gv = c * h + w * hertz_spring(m, h) - ra;
-      const double gp = c + w * hertz_slope(m, h);
+      // hertz_spring(m, h) and hertz_slope(m, h) (h >= 0) sharing one square
+      // root, every expression as written there (the same bits).
+      const double root = std::sqrt(h + d0);
+      const double base = (h + d0) * root - d0r;
+      const double gv = c * h + w * (m.hertz * base * (1.0 + m.alpha * h)) - ra;
+      const double gp = c + w * (m.hertz * (1.5 * root * (1.0 + m.alpha * h) + base * m.alpha));
       const double dh = gv / gp;
       h = std::max(h - dh, 0.0);
       if (!(std::abs(dh) > 1e-14 * h)) break;

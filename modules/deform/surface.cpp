@@ -163,6 +163,7 @@ DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> me
   stream_.assign(4 * n, 0.0f);
   active_.resize(n);
   dirty_.resize(n);
+  dirty_blocks_.assign((n + 4095) / 4096, 0);
   all_dirty_ = true;
   changed_.resize(n);
   static_assert(kChanged == kChangedFlag);
@@ -383,7 +384,12 @@ void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3*
   bfs_queue_.clear();
   bfs_queue_.push_back(c.vertex);
   flags_[c.vertex] |= kVisited;
+  const Index* offsets = mesh_->vertex_neighbors.offsets.data();
+  const Index* items = mesh_->vertex_neighbors.items.data();
   for (std::size_t head = 0; head < bfs_queue_.size(); ++head) {
+    // The neighbour list of the vertex a few places on (its offset was
+    // asked for when it was queued): no effect on results.
+    if (head + 4 < bfs_queue_.size()) __builtin_prefetch(items + offsets[bfs_queue_[head + 4]]);
     const Index i = bfs_queue_[head];
     const Vec3 d = pos[i] - c.point;
     const double r = d.norm();
@@ -508,6 +514,7 @@ struct DeformableSurface::Sweep {
   float* stream;
   const double* limit;
   Index* dirty;
+  std::uint64_t* dirty_blocks;
   std::size_t dirty_size;
   bool all_dirty;
   Index* changed;
@@ -526,6 +533,7 @@ struct DeformableSurface::Sweep {
         stream(s.stream_.data()),
         limit(s.drawn_limit_),
         dirty(s.dirty_.data()),
+        dirty_blocks(s.dirty_blocks_.data()),
         dirty_size(s.dirty_size_),
         all_dirty(s.all_dirty_),
         changed(s.changed_.data()),
@@ -542,6 +550,7 @@ struct DeformableSurface::Sweep {
     if (all_dirty || (f & kDirty)) return;
     f |= kDirty;
     dirty[dirty_size++] = i;
+    dirty_blocks[i >> 12] |= std::uint64_t{1} << ((i >> 6) & 63);
   }
 
   // Advances vertex i by dt under its field force (zero outside every field),
@@ -884,6 +893,7 @@ void DeformableSurface::mark_dirty(Index i) {
   if (all_dirty_ || (flags_[i] & kDirty)) return;
   flags_[i] |= kDirty;
   dirty_[dirty_size_++] = i;
+  dirty_blocks_[i >> 12] |= std::uint64_t{1} << ((i >> 6) & 63);
 }
 
 std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
@@ -895,32 +905,34 @@ std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
   // Everything changed: one range, and the individual marks are cleared.
   if (all_dirty_) {
     for (Index i : dirty) flags_[i] &= static_cast<std::uint8_t>(~kDirty);
+    std::fill(dirty_blocks_.begin(), dirty_blocks_.end(), 0);
     all_dirty_ = false;
     if (count > 0) ranges.push_back({0, count});
     return ranges;
   }
+  if (dirty.empty()) return ranges;
 
-  // Appends vertex i to the ranges, extending the last one when contiguous.
-  auto append = [&ranges](Index i) {
-    if (!ranges.empty() && ranges.back().end == i) {
-      ranges.back().end = i + 1;
-    } else {
-      ranges.push_back({i, i + 1});
-    }
-  };
-  if (dirty.size() >= count / 16 + 1) {
-    // Many changes: one linear pass over the flags beats sorting the list.
-    for (Index i = 0; i < count; ++i) {
-      if (!(flags_[i] & kDirty)) continue;
-      flags_[i] &= static_cast<std::uint8_t>(~kDirty);
-      append(i);
-    }
-  } else {
-    // Few changes: sort the list and merge contiguous runs.
-    std::sort(dirty.begin(), dirty.end());
-    for (Index i : dirty) {
-      flags_[i] &= static_cast<std::uint8_t>(~kDirty);
-      append(i);
+  // The blocks of 64 vertices holding a mark, in index order (one bit each),
+  // then the marks within each: sorted without sorting, in time proportional
+  // to the marked blocks (few on a spatially ordered mesh) plus one bit per
+  // block of the mesh.
+  for (std::size_t w = 0; w < dirty_blocks_.size(); ++w) {
+    std::uint64_t bits = dirty_blocks_[w];
+    if (!bits) continue;
+    dirty_blocks_[w] = 0;
+    while (bits) {
+      const Index block = static_cast<Index>(w * 64 + static_cast<std::size_t>(std::countr_zero(bits)));
+      bits &= bits - 1;
+      const Index end = std::min<Index>(count, (block + 1) * 64);
+      for (Index i = block * 64; i < end; ++i) {
+        if (!(flags_[i] & kDirty)) continue;
+        flags_[i] &= static_cast<std::uint8_t>(~kDirty);
+        if (!ranges.empty() && ranges.back().end == i) {
+          ranges.back().end = i + 1;
+        } else {
+          ranges.push_back({i, i + 1});
+        }
+      }
     }
   }
   return ranges;
