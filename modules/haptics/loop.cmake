@@ -11,6 +11,7 @@ target_sources(palpa_haptics PRIVATE
   ${CMAKE_CURRENT_LIST_DIR}/session.cpp
   ${CMAKE_CURRENT_LIST_DIR}/indent.cpp
   ${CMAKE_CURRENT_LIST_DIR}/loop.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/loop_replay.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/loop_replay.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/cpu_plan.cpp)
 # Devices are a lower layer (plugin interface and loader); the loop drives them.
 target_link_libraries(palpa_haptics PUBLIC palpa::devices Threads::Threads PRIVATE palpa::mesh)

@@ -1,0 +1,51 @@
+#pragma once
+// Where the live loop's threads run. On a machine with few cores the
+// software renderer (llvmpipe starts one worker per CPU), the deformation
+// thread and the GUI compete with the haptic thread: even at SCHED_FIFO
+// priority it then wakes into caches the others have filled and shares a
+// core's time with interrupts of their work. reserve_haptic_cpu() keeps one
+// CPU for the haptic thread alone and everything else off it.
+
+#include <string>
+#include <vector>
+
+namespace palpa::haptics {
+
+/// What reserve_haptic_cpu() decided.
+struct CpuPlan {
+  int haptic_cpu = -1;         ///< the CPU kept for the haptic thread (LoopConfig::haptic_cpu); -1: none
+  std::vector<int> others;     ///< the CPUs every other thread of the process may use
+  int renderer_threads = 0;    ///< LP_NUM_THREADS given to llvmpipe (0: left as it was)
+  std::string note;            ///< one line for logs and the Diagnostics dock
+};
+
+/// Call first thing in main(), before any other thread and before an
+/// OpenGL context exists. With two or more CPUs allowed (sched_getaffinity),
+/// keeps for the haptic thread the one that has handled the fewest device
+/// interrupts (/proc/interrupts; the highest on a tie): the calling thread, and so
+/// every thread it starts later (the GUI's, VTK's, llvmpipe's workers, the
+/// deformation thread), may run only on the others, and llvmpipe is told to
+/// start one worker per remaining CPU (LP_NUM_THREADS, unless the
+/// environment already sets it). The haptic thread pins itself to
+/// haptic_cpu when the loop starts (LoopConfig::haptic_cpu). With one CPU,
+/// or PALPA_HAPTIC_CPU=off in the environment, nothing changes;
+/// PALPA_HAPTIC_CPU=N keeps CPU N instead (when it is allowed). Remembered
+/// for reserved_haptic_cpu(); calling it again returns the first plan.
+CpuPlan reserve_haptic_cpu();
+
+/// The CPU reserve_haptic_cpu() kept, or -1 (not called, or nothing kept).
+int reserved_haptic_cpu();
+
+/// The decision alone (what reserve_haptic_cpu applies): among `allowed`
+/// CPUs, the haptic CPU and the others. `interrupts`: device interrupts per
+/// CPU number (device_interrupts_per_cpu); `env`: PALPA_HAPTIC_CPU's value
+/// ("" when unset). renderer_threads is the count of the others.
+CpuPlan plan_cpus(const std::vector<int>& allowed, const std::vector<unsigned long long>& interrupts,
+                  const std::string& env);
+
+/// Sums, per CPU, the numbered (device) lines of /proc/interrupts' text;
+/// the per-CPU lines (LOC, RES, NMI, ...) are left out. Indexed by CPU
+/// number; empty for an empty text.
+std::vector<unsigned long long> device_interrupts_per_cpu(const std::string& proc_interrupts_text);
+
+}  // namespace palpa::haptics

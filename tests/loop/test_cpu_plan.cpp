@@ -1,0 +1,119 @@
+// Where the loop's threads run (haptics/cpu_plan.h): the decision on given
+// CPUs and interrupt counts, the /proc/interrupts parser, and the
+// reservation applied to this process.
+
+#include "haptics/cpu_plan.h"
+
+#include <gtest/gtest.h>
+
+#include <pthread.h>
+#include <sched.h>
+
+#include <cstdlib>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace palpa::haptics {
+namespace {
+
+std::vector<int> affinity_of_this_thread() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  EXPECT_EQ(pthread_getaffinity_np(pthread_self(), sizeof set, &set), 0);
+  std::vector<int> cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &set)) cpus.push_back(c);
+  return cpus;
+}
+
+TEST(CpuPlan, ParsesTheDeviceLinesOfProcInterrupts) {
+  // The layout of Linux's /proc/interrupts (3 CPUs, one offline column gap).
+  const std::string text =
+      "           CPU0       CPU1       CPU3       \n"
+      " 28:          5          0          1 PCI-MSIX-0000:00:01.0   0-edge      virtio0-config\n"
+      " 36:          0     596674          9 PCI-MSIX-0000:00:02.0   1-edge      virtio1-req.0\n"
+      "  9:          2          0 IO-APIC   9-fasteoi   acpi\n"
+      "NMI:          0          0          0   Non-maskable interrupts\n"
+      "LOC:     900000     900000     900000   Local timer interrupts\n"
+      "ERR:          0\n";
+  const auto n = device_interrupts_per_cpu(text);
+  ASSERT_EQ(n.size(), 4u);
+  EXPECT_EQ(n[0], 7u);
+  EXPECT_EQ(n[1], 596674u);
+  EXPECT_EQ(n[2], 0u);  // no such column
+  EXPECT_EQ(n[3], 10u);
+  EXPECT_TRUE(device_interrupts_per_cpu("").empty());
+}
+
+TEST(CpuPlan, KeepsTheCpuWithTheFewestDeviceInterrupts) {
+  // The 2-CPU VM: the disk's interrupts all on CPU 1.
+  CpuPlan p = plan_cpus({0, 1}, {2904, 608190}, "");
+  EXPECT_EQ(p.haptic_cpu, 0);
+  EXPECT_EQ(p.others, std::vector<int>({1}));
+  EXPECT_EQ(p.renderer_threads, 1);
+  EXPECT_NE(p.note.find("CPU 0 kept"), std::string::npos) << p.note;
+  // A tie (or no counts): the highest.
+  p = plan_cpus({0, 1, 2, 3}, {}, "");
+  EXPECT_EQ(p.haptic_cpu, 3);
+  EXPECT_EQ(p.others, std::vector<int>({0, 1, 2}));
+  EXPECT_EQ(p.renderer_threads, 3);
+  // Only allowed CPUs count, whatever the counts of others.
+  p = plan_cpus({2, 5}, {0, 0, 50, 0, 0, 70}, "");
+  EXPECT_EQ(p.haptic_cpu, 2);
+  EXPECT_EQ(p.others, std::vector<int>({5}));
+}
+
+TEST(CpuPlan, OneCpuOrOffKeepsNothingAndABadChoiceSaysWhy) {
+  CpuPlan p = plan_cpus({0}, {}, "");
+  EXPECT_EQ(p.haptic_cpu, -1);
+  EXPECT_EQ(p.others, std::vector<int>({0}));
+  EXPECT_NE(p.note.find("only one CPU"), std::string::npos) << p.note;
+  p = plan_cpus({0, 1}, {}, "off");
+  EXPECT_EQ(p.haptic_cpu, -1);
+  EXPECT_NE(p.note.find("PALPA_HAPTIC_CPU=off"), std::string::npos) << p.note;
+  p = plan_cpus({0, 1}, {0, 100}, "1");  // chosen by hand, against the interrupts
+  EXPECT_EQ(p.haptic_cpu, 1);
+  EXPECT_EQ(p.others, std::vector<int>({0}));
+  for (const char* bad : {"7", "x", "1x", ""}) {
+    if (*bad == '\0') continue;
+    p = plan_cpus({0, 1}, {}, bad);
+    EXPECT_EQ(p.haptic_cpu, -1) << bad;
+    EXPECT_NE(p.note.find(std::string("PALPA_HAPTIC_CPU=") + bad + " is not a CPU"), std::string::npos) << p.note;
+  }
+}
+
+TEST(CpuPlan, ReservingMovesThisThreadAndLaterThreadsOffTheHapticCpu) {
+  const std::vector<int> before = affinity_of_this_thread();
+  const bool lp_was_set = std::getenv("LP_NUM_THREADS") != nullptr;
+  const CpuPlan p = reserve_haptic_cpu();
+  if (before.size() < 2) {
+    // Said, not skipped silently: on one CPU nothing is kept.
+    std::printf("one CPU allowed: nothing kept (%s)\n", p.note.c_str());
+    EXPECT_EQ(p.haptic_cpu, -1);
+    EXPECT_EQ(reserved_haptic_cpu(), -1);
+    return;
+  }
+  if (const char* env = std::getenv("PALPA_HAPTIC_CPU"); env && std::string(env) == "off") {
+    std::printf("PALPA_HAPTIC_CPU=off: nothing kept (%s)\n", p.note.c_str());
+    EXPECT_EQ(p.haptic_cpu, -1);
+    return;
+  }
+  ASSERT_GE(p.haptic_cpu, 0) << p.note;
+  EXPECT_EQ(reserved_haptic_cpu(), p.haptic_cpu);
+  EXPECT_EQ(affinity_of_this_thread(), p.others);
+  std::vector<int> child;
+  std::thread([&] { child = affinity_of_this_thread(); }).join();
+  EXPECT_EQ(child, p.others);  // inherited: the renderer's and the deformation's threads
+  if (!lp_was_set) {
+    ASSERT_NE(std::getenv("LP_NUM_THREADS"), nullptr);
+    EXPECT_EQ(std::string(std::getenv("LP_NUM_THREADS")), std::to_string(p.others.size()));
+  }
+  // The second call returns the first plan and changes nothing more.
+  const CpuPlan again = reserve_haptic_cpu();
+  EXPECT_EQ(again.haptic_cpu, p.haptic_cpu);
+  EXPECT_EQ(affinity_of_this_thread(), p.others);
+}
+
+}  // namespace
+}  // namespace palpa::haptics
