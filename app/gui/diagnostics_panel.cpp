@@ -2,8 +2,12 @@
 
 #include "app/gui/diagnostics_panel.h"
 
+#include "haptics/cpu_plan.h"
+
 #include <QFormLayout>
 #include <QLabel>
+
+#include <string>
 
 namespace palpa::app {
 
@@ -24,6 +28,11 @@ DiagnosticsPanel::DiagnosticsPanel(QWidget* parent) : QWidget(parent) {
                          "Share of the ticks of the last whole second that missed their deadline");
   frame_ = label("frameRateReadout", "0 fps", "Frame rate", "Frames the viewport drew per second (an idle view draws none)");
   renders_ = label("rendersReadout", "0", "Frames drawn", "Frames the viewport drew since the window opened");
+  const int cpu = haptics::reserved_haptic_cpu();
+  label("hapticCpuReadout", cpu >= 0 ? ("CPU " + std::to_string(cpu) + " (kept for it)").c_str() : "any (none kept)",
+        "Haptic thread CPU",
+        "The CPU the haptic thread has to itself; every other thread, the software renderer's included, runs on the "
+        "others (PALPA_HAPTIC_CPU=off or a CPU number in the environment changes it)");
 }
 
 void DiagnosticsPanel::restart() {

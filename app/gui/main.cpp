@@ -7,6 +7,7 @@
 #include "app/gui/main_window.h"
 #include "app/render/render_job.h"
 #include "app/scenario/scenario_check.h"
+#include "haptics/cpu_plan.h"
 
 #include <QApplication>
 #include <QFileInfo>
@@ -90,6 +91,12 @@ int main(int argc, char** argv) {
     return run_headless(job, "palpa-headless.png");
   }
 
+  // One CPU for the haptic thread, every other thread (Qt's, VTK's,
+  // llvmpipe's workers, the deformation) on the others: before any of them
+  // starts.
+  const palpa::haptics::CpuPlan plan = palpa::haptics::reserve_haptic_cpu();
+  std::printf("palpa: %s\n", plan.note.c_str());
+  std::fflush(stdout);
   palpa::app::configure_application_defaults();
   QApplication app(argc, argv);
   palpa::app::MainWindow window;

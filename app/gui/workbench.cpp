@@ -1,6 +1,7 @@
 // The workbench's model: probes as devices of the real-time haptic loop.
 
 #include "app/gui/workbench.h"
+#include "haptics/cpu_plan.h"
 
 #include <algorithm>
 #include <chrono>
@@ -56,6 +57,7 @@ haptics::LoopConfig Workbench::loop_config(const MaterialSettings& m) const {
   c.core.force = force_params(m);
   c.core.shape = deform::ShapeFunction{m.shape, m.radius};
   c.record_capacity = kRecordCapacity;  // so that a recording can start while the loop runs
+  c.haptic_cpu = haptics::reserved_haptic_cpu();  // the CPU main() kept for it (-1: none)
   return c;
 }
 
