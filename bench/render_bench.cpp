@@ -58,6 +58,7 @@ struct Options {
   int warmup = 5;
   int width = 1024, height = 768;
   GlBackend backend = GlBackend::Auto;
+  std::vector<std::size_t> triangles;  // empty: the default sizes
   std::string json;
 };
 
@@ -219,7 +220,9 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
 void usage() {
   std::puts(
       "usage: palpa-render-bench [--quick] [--frames N] [--size WxH] [--gl auto|osmesa|egl] [--json FILE]\n"
+      "                          [--triangles N,N,...]\n"
       "  --quick        100k triangles only, 15 frames per case\n"
+      "  --triangles L  sphere sizes in triangles, e.g. 1000000,2000000 (default 100000,1000000)\n"
       "  --frames N     measured frames per case (default 40, after 5 warm-up frames)\n"
       "  --size WxH     window size in pixels (default 1024x768)\n"
       "  --gl BACKEND   offscreen OpenGL (default auto: EGL on a GPU, else OSMesa)\n"
@@ -262,6 +265,19 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--json") {
       o.json = value();
+    } else if (a == "--triangles") {
+      const std::string v = value();
+      for (std::size_t p = 0; p <= v.size();) {
+        const std::size_t q = std::min(v.find(',', p), v.size());
+        const long long n = std::atoll(v.substr(p, q - p).c_str());
+        if (n < 100 || n > 20'000'000) {
+          std::fprintf(stderr, "palpa-render-bench: --triangles: expected counts from 100 to 20000000, got '%s'\n",
+                       v.c_str());
+          return 2;
+        }
+        o.triangles.push_back(static_cast<std::size_t>(n));
+        p = q + 1;
+      }
     } else {
       std::fprintf(stderr, "palpa-render-bench: unknown option '%s' (see --help)\n", a.c_str());
       return 2;
@@ -276,6 +292,10 @@ int main(int argc, char** argv) {
                 o.frames);
     std::vector<std::size_t> sizes = {50'000, 500'000};  // vertices: ~100k and ~1M triangles
     if (o.quick) sizes = {50'000};
+    if (!o.triangles.empty()) {
+      sizes.clear();
+      for (std::size_t t : o.triangles) sizes.push_back(t / 2 + 2);  // a closed sphere: F = 2V - 4
+    }
     std::vector<CaseResult> all;
     std::printf("\n%-10s %8s %-8s %10s %10s %12s %12s %10s %10s\n", "triangles", "contacts", "method", "frame ms",
                 "upload ms", "bytes/frame", "index B/fr", "changed V", "step ms");
