@@ -58,34 +58,4 @@ double ShapeFunction::derivative(double r) const {
   return sign * ds_du / radius;
 }
 
-void ShapeFunction::evaluate(double r, double& value, double& slope) const {
-  // value() and derivative() sharing u; every expression as written there.
-  value = 0.0;
-  slope = 0.0;
-  if (!(radius > 0) || !(r < radius)) return;
-  const double sign = r < 0 ? -1.0 : 1.0;
-  const double u = std::abs(r) / radius;
-  double ds_du = 0.0;
-  switch (kind) {
-    case ShapeKind::Gaussian:
-      value = std::exp(-8.0 * u * u);
-      ds_du = -16.0 * u * std::exp(-8.0 * u * u);
-      break;
-    case ShapeKind::Wendland: {
-      const double a = 1.0 - u;
-      const double a2 = a * a;
-      value = a2 * a2 * (4.0 * u + 1.0);
-      ds_du = -20.0 * u * a * a * a;
-      break;
-    }
-    case ShapeKind::VolumeConserving: {
-      const double w = 1.0 - u * u;
-      value = (1.0 - 5.0 * u * u) * w * w * w;
-      ds_du = 8.0 * u * w * w * (5.0 * u * u - 2.0);
-      break;
-    }
-  }
-  slope = sign * ds_du / radius;
-}
-
 }  // namespace palpa::deform

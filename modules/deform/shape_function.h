@@ -4,6 +4,8 @@
 // normalised so that S(0) = 1. Their derivatives give the normal corrections
 // of eq. (3).
 
+#include <cmath>
+
 namespace palpa::deform {
 
 enum class ShapeKind : unsigned char {
@@ -27,7 +29,39 @@ struct ShapeFunction {
   double derivative(double r) const;
   /// Both at once: value = value(r), slope = derivative(r) (1/m), with the
   /// same arithmetic (so the same bits) at the cost of one evaluation.
+  /// Inline: the force field calls it for every vertex of every contact.
   void evaluate(double r, double& value, double& slope) const;
 };
+
+inline void ShapeFunction::evaluate(double r, double& value, double& slope) const {
+  // value() and derivative() sharing u; every expression as written there.
+  value = 0.0;
+  slope = 0.0;
+  if (!(radius > 0) || !(r < radius)) return;
+  const double sign = r < 0 ? -1.0 : 1.0;
+  const double u = std::abs(r) / radius;
+  double ds_du = 0.0;
+  switch (kind) {
+    case ShapeKind::Gaussian:
+      value = std::exp(-8.0 * u * u);
+      ds_du = -16.0 * u * std::exp(-8.0 * u * u);
+      break;
+    case ShapeKind::Wendland: {
+      const double a = 1.0 - u;
+      const double a2 = a * a;
+      value = a2 * a2 * (4.0 * u + 1.0);
+      ds_du = -20.0 * u * a * a * a;
+      break;
+    }
+    case ShapeKind::VolumeConserving: {
+      const double w = 1.0 - u * u;
+      value = (1.0 - 5.0 * u * u) * w * w * w;
+      ds_du = 8.0 * u * w * w * (5.0 * u * u - 2.0);
+      break;
+    }
+  }
+  slope = sign * ds_du / radius;
+}
+
 
 }  // namespace palpa::deform
