@@ -2,6 +2,7 @@
 
 #include "app/replay/session_job.h"
 
+#include "mesh/spatial_order.h"
 #include "scenario/resolve.h"
 #include "scenario/scenario.h"
 #include "tissue/regions.h"
@@ -22,10 +23,18 @@ LoadedSession load_session(const std::string& file) {
   if (!h.info.scenario_json.empty()) {
     // The recorded scenario text, resolved again: its organ must be the recorded mesh.
     const scenario::Scenario sc = scenario::parse_scenario(h.info.scenario_json, h.info.scenario_file);
-    const scenario::Resolved r = scenario::resolve(sc);
-    if (r.organ.mesh->positions != mesh->positions || r.organ.mesh->triangles != mesh->triangles)
+    scenario::Resolved r = scenario::resolve(sc);
+    if (!mesh::same_mesh_up_to_spatial_order(*mesh, *r.organ.mesh))
       throw std::runtime_error(file + ": the organ of its scenario (" + sc.organ.path +
                                ") is not the recorded mesh; the organ file changed since the session");
+    if (r.organ.mesh->positions != mesh->positions) {
+      // Recorded before organs were numbered in spatial order: the same
+      // organ in the file's numbering. The model is resolved on the recorded
+      // numbering, which the ticks and snapshots refer to.
+      mesh::Organ organ = r.organ;
+      organ.mesh = mesh;
+      r = scenario::resolve_on(sc, std::move(organ));
+    }
     s.model = haptics::SessionModel::make(mesh, h.options, h.config, r.field, r.materials);
     s.lesions = r.lesions;
     s.scenario_title = sc.title;

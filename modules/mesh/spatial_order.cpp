@@ -116,4 +116,15 @@ std::vector<Index> reorder_spatially(SurfaceMesh& mesh) {
   return new_of_old;
 }
 
+bool same_mesh_up_to_spatial_order(const SurfaceMesh& recorded, const SurfaceMesh& loaded) {
+  if (recorded.positions == loaded.positions && recorded.triangles == loaded.triangles) return true;
+  if (recorded.vertex_count() != loaded.vertex_count() || recorded.triangle_count() != loaded.triangle_count())
+    return false;
+  SurfaceMesh renumbered;
+  renumbered.positions = recorded.positions;
+  renumbered.triangles = recorded.triangles;
+  reorder_spatially(renumbered);
+  return renumbered.positions == loaded.positions && renumbered.triangles == loaded.triangles;
+}
+
 }  // namespace palpa::mesh

@@ -28,4 +28,10 @@ std::uint64_t hilbert_key(const Vec3& p, const Vec3& lo, const Vec3& hi);
 /// the vertex count): vertex i of the input is vertex new_of_old[i].
 std::vector<Index> reorder_spatially(SurfaceMesh& mesh);
 
+/// True when `loaded` has exactly the positions and triangles of `recorded`,
+/// or of `recorded` renumbered by reorder_spatially: the same organ file,
+/// recorded before or after organs were numbered in spatial order
+/// (2026-12-03). Bitwise comparison; O(V log V) when a renumbering is tried.
+bool same_mesh_up_to_spatial_order(const SurfaceMesh& recorded, const SurfaceMesh& loaded);
+
 }  // namespace palpa::mesh

@@ -143,3 +143,28 @@ TEST(SpatialOrder, AContactSizedPatchFillsFewCacheLines) {
 
 }  // namespace
 }  // namespace palpa::mesh
+
+namespace palpa::mesh {
+namespace {
+
+TEST(SpatialOrder, ASessionsMeshMatchesItsOrganInEitherNumbering) {
+  // A session recorded before the spatial order holds the file's numbering;
+  // the organ loaded now is renumbered: the same organ either way.
+  const SurfaceMesh file_order = shuffled(make_organ(3000), 5);
+  SurfaceMesh loaded = file_order;
+  reorder_spatially(loaded);
+  EXPECT_TRUE(same_mesh_up_to_spatial_order(file_order, loaded));
+  EXPECT_TRUE(same_mesh_up_to_spatial_order(loaded, loaded));
+  // Another organ, or the same one with one vertex moved or one triangle
+  // turned over, is not.
+  SurfaceMesh moved = file_order;
+  moved.positions[17].x() += 1e-9;
+  EXPECT_FALSE(same_mesh_up_to_spatial_order(moved, loaded));
+  SurfaceMesh flipped = file_order;
+  std::swap(flipped.triangles[3][1], flipped.triangles[3][2]);
+  EXPECT_FALSE(same_mesh_up_to_spatial_order(flipped, loaded));
+  EXPECT_FALSE(same_mesh_up_to_spatial_order(make_organ(2000), loaded));
+}
+
+}  // namespace
+}  // namespace palpa::mesh
