@@ -30,6 +30,10 @@ constexpr std::uint8_t kVisited = 1u << 2;
 constexpr std::uint8_t kDirty = 1u << 3;
 constexpr std::uint8_t kChanged = 1u << 4;  // remembered for level_with (DeformableSurface::kChangedFlag)
 
+// Notes that vertex i holds a dirty mark: bit (i / 64) % 64 of word i / 4096
+// of the block bitmap take_dirty_ranges walks.
+inline void mark_block(std::uint64_t* blocks, Index i) { blocks[i >> 12] |= std::uint64_t{1} << ((i >> 6) & 63); }
+
 bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
 bool at_rest(const VertexState& s) { return s.h == 0.0 && s.v == 0.0 && s.q == 0.0; }
@@ -162,7 +166,6 @@ DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> me
   flags_.assign(n, 0);
   stream_.assign(4 * n, 0.0f);
   active_.resize(n);
-  dirty_.resize(n);
   dirty_blocks_.assign((n + 4095) / 4096, 0);
   all_dirty_ = true;
   changed_.resize(n);
@@ -537,9 +540,7 @@ struct DeformableSurface::Sweep {
   std::uint8_t* flags;
   float* stream;
   const double* limit;
-  Index* dirty;
   std::uint64_t* dirty_blocks;
-  std::size_t dirty_size;
   bool all_dirty;
   Index* changed;
   std::size_t changed_size;
@@ -556,25 +557,19 @@ struct DeformableSurface::Sweep {
         flags(s.flags_.data()),
         stream(s.stream_.data()),
         limit(s.drawn_limit_),
-        dirty(s.dirty_.data()),
         dirty_blocks(s.dirty_blocks_.data()),
-        dirty_size(s.dirty_size_),
         all_dirty(s.all_dirty_),
         changed(s.changed_.data()),
         changed_size(s.changed_size_),
         dt(step_dt),
         rest(s.options_.rest_threshold) {}
 
-  void finish(DeformableSurface& s) const {
-    s.dirty_size_ = dirty_size;
-    s.changed_size_ = changed_size;
-  }
+  void finish(DeformableSurface& s) const { s.changed_size_ = changed_size; }
 
   void mark(Index i, std::uint8_t& f) {
     if (all_dirty || (f & kDirty)) return;
     f |= kDirty;
-    dirty[dirty_size++] = i;
-    dirty_blocks[i >> 12] |= std::uint64_t{1} << ((i >> 6) & 63);
+    mark_block(dirty_blocks, i);
   }
 
   // Advances vertex i by dt under its field force (zero outside every field),
@@ -943,25 +938,16 @@ void DeformableSurface::write_stream(Index i) {
 void DeformableSurface::mark_dirty(Index i) {
   if (all_dirty_ || (flags_[i] & kDirty)) return;
   flags_[i] |= kDirty;
-  dirty_[dirty_size_++] = i;
-  dirty_blocks_[i >> 12] |= std::uint64_t{1} << ((i >> 6) & 63);
+  mark_block(dirty_blocks_.data(), i);
 }
 
 std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
   std::vector<IndexRange> ranges;
   const Index count = static_cast<Index>(mesh_->vertex_count());
-  const std::span<Index> dirty(dirty_.data(), dirty_size_);
-  dirty_size_ = 0;
-
-  // Everything changed: one range, and the individual marks are cleared.
-  if (all_dirty_) {
-    for (Index i : dirty) flags_[i] &= static_cast<std::uint8_t>(~kDirty);
-    std::fill(dirty_blocks_.begin(), dirty_blocks_.end(), 0);
-    all_dirty_ = false;
-    if (count > 0) ranges.push_back({0, count});
-    return ranges;
-  }
-  if (dirty.empty()) return ranges;
+  // Everything changed (a new surface, set_state, restore): one range; the
+  // marks made before are only cleared.
+  const bool whole = all_dirty_;
+  all_dirty_ = false;
 
   // The blocks of 64 vertices holding a mark, in index order (one bit each),
   // then the marks within each: sorted without sorting, in time proportional
@@ -978,6 +964,7 @@ std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
       for (Index i = block * 64; i < end; ++i) {
         if (!(flags_[i] & kDirty)) continue;
         flags_[i] &= static_cast<std::uint8_t>(~kDirty);
+        if (whole) continue;
         if (!ranges.empty() && ranges.back().end == i) {
           ranges.back().end = i + 1;
         } else {
@@ -986,6 +973,7 @@ std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
       }
     }
   }
+  if (whole && count > 0) ranges.push_back({0, count});
   return ranges;
 }
 

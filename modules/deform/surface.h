@@ -309,9 +309,9 @@ class DeformableSurface {
   std::vector<float> stream_;
   std::shared_ptr<const std::vector<double>> drawn_limits_;  // per vertex, m (all +inf when unlimited)
   const double* drawn_limit_ = nullptr;                      // drawn_limits_->data()
-  std::vector<Index> dirty_;          // changed since take_dirty_ranges (flag bit 3): first dirty_size_ entries
-  std::size_t dirty_size_ = 0;
-  std::vector<std::uint64_t> dirty_blocks_;  // bit b of word w: a mark among vertices 64 (64 w + b) ..
+  // Vertices changed since take_dirty_ranges carry flag bit 3; bit b of word
+  // w here says that one of the vertices 64 (64 w + b) .. + 63 may.
+  std::vector<std::uint64_t> dirty_blocks_;
   bool all_dirty_ = true;             // every vertex changed (new surface or set_state)
   std::vector<Index> changed_;        // for level_with (flag bit 4): first changed_size_ entries
   std::size_t changed_size_ = 0;
