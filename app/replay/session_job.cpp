@@ -24,10 +24,10 @@ LoadedSession load_session(const std::string& file) {
     // The recorded scenario text, resolved again: its organ must be the recorded mesh.
     const scenario::Scenario sc = scenario::parse_scenario(h.info.scenario_json, h.info.scenario_file);
     scenario::Resolved r = scenario::resolve(sc);
-    if (!mesh::same_mesh_up_to_spatial_order(*mesh, *r.organ.mesh))
-      throw std::runtime_error(file + ": the organ of its scenario (" + sc.organ.path +
-                               ") is not the recorded mesh; the organ file changed since the session");
-    if (r.organ.mesh->positions != mesh->positions) {
+    if (r.organ.mesh->positions != mesh->positions || r.organ.mesh->triangles != mesh->triangles) {
+      if (!mesh::same_mesh_up_to_spatial_order(*mesh, *r.organ.mesh))
+        throw std::runtime_error(file + ": the organ of its scenario (" + sc.organ.path +
+                                 ") is not the recorded mesh; the organ file changed since the session");
       // Recorded before organs were numbered in spatial order: the same
       // organ in the file's numbering. The model is resolved on the recorded
       // numbering, which the ticks and snapshots refer to.
