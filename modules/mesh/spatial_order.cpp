@@ -80,11 +80,6 @@ std::vector<Index> reorder_spatially(SurfaceMesh& mesh) {
     std::vector<Vec3> positions(n);
     for (std::size_t i = 0; i < n; ++i) positions[new_of_old[i]] = mesh.positions[i];
     mesh.positions = std::move(positions);
-    if (mesh.normals.size() == n) {
-      std::vector<Vec3> normals(n);
-      for (std::size_t i = 0; i < n; ++i) normals[new_of_old[i]] = mesh.normals[i];
-      mesh.normals = std::move(normals);
-    }
     for (Triangle& t : mesh.triangles)
       for (Index& v : t) v = new_of_old[v];
   }
@@ -112,6 +107,11 @@ std::vector<Index> reorder_spatially(SurfaceMesh& mesh) {
                      [&](const Triangle& a, const Triangle& b) { return sorted(a) < sorted(b); });
   }
 
+  // The normals from the numbered mesh itself, always: a session file keeps
+  // positions and triangles only and its reader computes them so; permuted
+  // (or computed before a change of unit) they would differ in the last bits
+  // and a replay would not be bit-identical.
+  if (!mesh.normals.empty()) compute_normals(mesh);
   if ((!identity || !triangles_in_order) && !mesh.vertex_neighbors.offsets.empty()) build_adjacency(mesh);
   return new_of_old;
 }

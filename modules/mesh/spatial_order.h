@@ -20,10 +20,13 @@ std::uint64_t hilbert_key(const Vec3& p, const Vec3& lo, const Vec3& hi);
 /// Renumbers the vertices in Hilbert order of their positions (ties keep
 /// their old order) and sorts the triangles by their smallest, middle and
 /// largest new vertex index; each triangle keeps its corners' cyclic order,
-/// so its orientation. Normals are permuted with the positions; adjacency
-/// (vertex_neighbors, vertex_triangles, triangle_neighbors) is rebuilt when
-/// the mesh had it. The geometry, the topology and every per-vertex value
-/// are those of the input, only numbered differently. Idempotent: a mesh
+/// so its orientation. Normals (when the mesh had them) are computed again
+/// from the renumbered mesh (compute_normals: the same vectors up to
+/// rounding, and bit for bit what a session file's reader computes from the
+/// positions and triangles it keeps); adjacency (vertex_neighbors,
+/// vertex_triangles, triangle_neighbors) is rebuilt when the mesh had it.
+/// The geometry, the topology and every per-vertex value are those of the
+/// input, only numbered differently. Idempotent: a mesh
 /// already in this order comes back unchanged. Returns new_of_old (size:
 /// the vertex count): vertex i of the input is vertex new_of_old[i].
 std::vector<Index> reorder_spatially(SurfaceMesh& mesh);
