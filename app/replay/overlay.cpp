@@ -30,14 +30,20 @@ cv::Scalar level_colour(assess::Level l) {
 void draw_force_strip(cv::Mat& img, const cv::Rect& area, const std::vector<std::deque<std::pair<double, double>>>& force,
                       double now, double span, double limit) {
   cv::Mat roi = img(area);
-  roi = roi * 0.35 + cv::Scalar(25, 25, 25) * 0.65;
+  roi.convertTo(roi, -1, 0.35, 25 * 0.65);  // in place, one pass
   // The scale follows the forces shown (at least a third of the limit, 0.5 N).
   double top = std::max(0.5, limit > 0 ? limit / 3 : 0.0);
   for (const auto& f : force)
     for (const auto& [t, v] : f)
       if (now - t <= span) top = std::max(top, 1.2 * v);
   const auto y_of = [&](double v) { return area.y + area.height - 1 - static_cast<int>((area.height - 2) * v / top); };
-  const auto x_of = [&](double t) { return area.x + static_cast<int>((area.width - 1) * (1.0 - (now - t) / span)); };
+  // The curves in quarter pixels (cv::polylines' shift of 2 bits).
+  constexpr int kSub = 4;
+  const auto sub_point = [&](double t, double v) {
+    const double x = area.x + (area.width - 1) * (1.0 - (now - t) / span);
+    const double y = area.y + area.height - 1 - (area.height - 2) * v / top;
+    return cv::Point(static_cast<int>(std::lround(kSub * x)), static_cast<int>(std::lround(kSub * y)));
+  };
   // Pressure bands relative to the task's force limit.
   if (limit > 0) {
     const double edges[] = {0, 0.25 * limit, 0.5 * limit, limit, top};
@@ -47,7 +53,8 @@ void draw_force_strip(cv::Mat& img, const cv::Rect& area, const std::vector<std:
       band &= area;
       if (band.area() <= 0) continue;
       cv::Mat sub = img(band);
-      sub = sub * 0.6 + fill[b] * 0.4;
+      sub.convertTo(sub, -1, 0.6);
+      cv::add(sub, fill[b] * 0.4, sub);
     }
     if (limit <= top) {
       cv::line(img, {area.x, y_of(limit)}, {area.x + area.width - 1, y_of(limit)}, {60, 60, 255}, 1, cv::LINE_AA);
@@ -61,8 +68,19 @@ void draw_force_strip(cv::Mat& img, const cv::Rect& area, const std::vector<std:
   for (std::size_t j = 0; j < force.size(); ++j) {
     std::vector<cv::Point> pts;
     for (const auto& [t, v] : force[j])
-      if (now - t <= span) pts.emplace_back(x_of(t), y_of(v));
-    if (pts.size() > 1) cv::polylines(img, pts, false, probe_colour(j), 2, cv::LINE_AA);
+      if (now - t <= span) {
+        const cv::Point p = sub_point(t, v);
+        if (pts.empty() || p != pts.back()) pts.push_back(p);
+      }
+    // Two pixels wide: two one-pixel anti-aliased lines half a pixel above
+    // and below (a thick anti-aliased polyline costs ten times as much: a
+    // filled polygon and two round caps per segment).
+    if (pts.size() > 1)
+      for (const int dy : {-kSub / 2, kSub / 2}) {
+        for (cv::Point& p : pts) p.y += dy;
+        cv::polylines(img, pts, false, probe_colour(j), 1, cv::LINE_AA, 2);
+        for (cv::Point& p : pts) p.y -= dy;
+      }
     if (!force[j].empty())
       cv::putText(img, cv::format("probe %zu  %.2f N", j + 1, force[j].back().second),
                   {area.x + area.width - 150, area.y + 16 + 16 * static_cast<int>(j)}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
