@@ -60,8 +60,9 @@ const char* kUsage =
     "  --overlays LIST     any of force,levels,coverage,marks,timeline (default: all); 'none' for none\n"
     "  --reveal            draw the scenario's hidden and after-exam lesions too\n"
     "  --gl auto|osmesa|egl  offscreen OpenGL (default auto)\n"
-    "  --pipeline on|off   re-simulate, render and encode on three threads at once (default on) or\n"
-    "                      one stage after the other on one thread; the frames are the same\n"
+    "  --pipeline on|off   re-simulate, render and encode on three threads at once, drawing in two\n"
+    "                      scenes in turn (default on), or one stage after the other on one thread\n"
+    "                      in one scene; the frames are the same\n"
     "  --cull on|off       skip the organ's back faces when it is closed and oriented outward (default\n"
     "                      on; the same picture, less rasterising)\n"
     "  --translucency blend|oit  translucent props (probe shafts, lesions, marks) by plain alpha\n"
@@ -256,6 +257,19 @@ struct FrameBuffer {
   Packet* packet = nullptr;
 };
 
+// What the rendering stage draws with: an offscreen window (its own OpenGL
+// context) and every prop in it. Each scene takes every packet's stream
+// changes, so it is current whenever it draws.
+struct SceneSet {
+  SceneSet(int width, int height, render::GlBackend gl, const std::shared_ptr<const mesh::SurfaceMesh>& mesh)
+      : scene(width, height, gl), view(mesh) {}
+  render::OffscreenScene scene;
+  render::SurfaceView view;  // its stream starts at rest (zeros), as a new session's surface
+  std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views, mark_views;
+  std::vector<bool> mark_shown;
+  std::vector<std::unique_ptr<render::ProbeView>> probes;
+};
+
 int run(const Options& o) {
   app::LoadedSession s = app::load_session(o.session);
   const record::SessionHeader& h = s.file.header();
@@ -292,36 +306,16 @@ int run(const Options& o) {
       std::min<std::uint64_t>(first + h.ticks, first + static_cast<std::uint64_t>(std::floor(to * rate)) + 1);
   const bool with_coverage = o.overlays.count("coverage") > 0;
   const bool with_levels = o.overlays.count("levels") > 0;
-  render::OffscreenScene scene(o.width, o.height, o.gl);
-  scene.set_plain_blending(o.plain_blending);
-  std::printf("rendering %dx%d at %.0f fps with %s (%s)%s\n", o.width, o.height, o.fps,
-              std::string(render::gl_backend_name(scene.window().backend())).c_str(),
-              scene.window().gl_renderer().c_str(), o.pipeline ? "" : ", one stage at a time");
   const auto& mesh = s.model->mesh;
-  render::SurfaceView view(mesh);  // its stream starts at rest (zeros), as a new session's surface
-  scene.add(view.actor());
-  {
-    // A closed, outward surface seen from outside looks the same without its
-    // back faces (each lies behind a front face).
-    const mesh::MeshFacts facts = mesh::analyse(*mesh);
-    if (o.cull && facts.closed() && facts.consistently_oriented && facts.signed_volume > 0)
-      view.set_backface_culling(true);
-  }
   const tissue::TissueField* field = s.model->field.get();
-  std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views;
-  for (const auto& l : s.lesions) {
-    if (!(l.visibility == tissue::Visibility::Shown || o.reveal)) continue;
-    lesion_views.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
-    lesion_views.back()->add_to(scene.renderer());
-  }
   const std::vector<record::EventRecord> events = s.file.events();
-  std::vector<std::unique_ptr<render::EllipsoidView>> mark_views;
   std::vector<double> mark_times, mark_view_times, mark_view_ends;
   std::vector<Vec3> mark_view_points;
+  std::vector<double> mark_radii;
   for (const auto& e : events) {
     if (e.kind == record::EventKind::Unmark && o.overlays.count("marks") > 0) {
       // The trainee deleted a mark: the latest standing one at that point leaves the picture.
-      for (std::size_t m = mark_views.size(); m-- > 0;)
+      for (std::size_t m = mark_view_points.size(); m-- > 0;)
         if (mark_view_points[m] == haptics::to_vec(e.point) && mark_view_ends[m] > e.time - t0) {
           mark_view_ends[m] = e.time - t0;
           break;
@@ -330,16 +324,12 @@ int run(const Options& o) {
     if (e.kind == record::EventKind::Mark) {
       mark_times.push_back(e.time - t0);
       if (o.overlays.count("marks") == 0) continue;
-      const double r = std::max(0.002, 0.5 * e.value);
-      auto mv = std::make_unique<render::EllipsoidView>(haptics::to_vec(e.point), Vec3::Constant(r));
-      mv->set_color(1.0, 0.85, 0.1, 0.9);
-      mark_views.push_back(std::move(mv));
+      mark_radii.push_back(std::max(0.002, 0.5 * e.value));
       mark_view_times.push_back(e.time - t0);
       mark_view_ends.push_back(std::numeric_limits<double>::infinity());
       mark_view_points.push_back(haptics::to_vec(e.point));
     }
   }
-  std::vector<bool> mark_shown(mark_views.size(), false);
   Vec3 lo = mesh->positions[0], hi = lo;
   for (const Vec3& p : mesh->positions) {
     lo = lo.cwiseMin(p);
@@ -347,15 +337,47 @@ int run(const Options& o) {
   }
   const double size = (hi - lo).norm();
   const std::size_t probe_count = h.setups.size();
-  std::vector<std::unique_ptr<render::ProbeView>> probes;
-  for (std::size_t j = 0; j < probe_count; ++j) {
-    auto pv = std::make_unique<render::ProbeView>(0.008 * size, 0.15 * size);
-    pv->set_force_scale(0.25 * size / std::max(s.force_limit > 0 ? s.force_limit : 8.0, 1e-9));
-    pv->add_to(scene.renderer());
-    probes.push_back(std::move(pv));
-  }
   const Vec3 view_dir = Vec3(0, -std::sin(0.61), std::cos(0.61)).normalized();
-  scene.look_at(view.bounds(), view_dir, Vec3::UnitZ());
+  // A closed, outward surface seen from outside looks the same without its
+  // back faces (each lies behind a front face).
+  bool cull = false;
+  if (o.cull) {
+    const mesh::MeshFacts facts = mesh::analyse(*mesh);
+    cull = facts.closed() && facts.consistently_oriented && facts.signed_volume > 0;
+  }
+  // Three threads: two scenes drawn in turn, so that one frame's geometry
+  // (on this thread) overlaps the previous frame's rasterisation (on the
+  // software renderer's threads); one stage after the other: one scene.
+  std::vector<std::unique_ptr<SceneSet>> scenes;
+  for (int k = 0; k < (o.pipeline ? 2 : 1); ++k) {
+    auto set = std::make_unique<SceneSet>(o.width, o.height, o.gl, mesh);
+    set->scene.set_plain_blending(o.plain_blending);
+    set->scene.add(set->view.actor());
+    if (cull) set->view.set_backface_culling(true);
+    for (const auto& l : s.lesions) {
+      if (!(l.visibility == tissue::Visibility::Shown || o.reveal)) continue;
+      set->lesion_views.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
+      set->lesion_views.back()->add_to(set->scene.renderer());
+    }
+    for (std::size_t m = 0; m < mark_view_points.size(); ++m) {
+      auto mv = std::make_unique<render::EllipsoidView>(mark_view_points[m], Vec3::Constant(mark_radii[m]));
+      mv->set_color(1.0, 0.85, 0.1, 0.9);
+      set->mark_views.push_back(std::move(mv));
+    }
+    set->mark_shown.assign(set->mark_views.size(), false);
+    for (std::size_t j = 0; j < probe_count; ++j) {
+      auto pv = std::make_unique<render::ProbeView>(0.008 * size, 0.15 * size);
+      pv->set_force_scale(0.25 * size / std::max(s.force_limit > 0 ? s.force_limit : 8.0, 1e-9));
+      pv->add_to(set->scene.renderer());
+      set->probes.push_back(std::move(pv));
+    }
+    set->scene.look_at(set->view.bounds(), view_dir, Vec3::UnitZ());
+    scenes.push_back(std::move(set));
+  }
+  std::printf("rendering %dx%d at %.0f fps with %s (%s)%s\n", o.width, o.height, o.fps,
+              std::string(render::gl_backend_name(scenes[0]->scene.window().backend())).c_str(),
+              scenes[0]->scene.window().gl_renderer().c_str(),
+              o.pipeline ? ", two scenes in turn" : ", one stage at a time");
 
   // Outputs.
   cv::VideoWriter writer;
@@ -393,7 +415,7 @@ int run(const Options& o) {
   const std::size_t pool = o.pipeline ? 4 : 1;
   std::vector<Packet> packets(pool);
   std::vector<FrameBuffer> buffers(pool);
-  Stage sim_stage, pack_stage, upload_stage, render_stage, finish_stage, read_stage, convert_stage, overlay_stage,
+  Stage warm_stage, sim_stage, pack_stage, upload_stage, render_stage, finish_stage, read_stage, convert_stage, overlay_stage,
       encode_stage;
   Queue<Packet*> free_packets, to_render;
   Queue<FrameBuffer*> free_buffers, to_encode;
@@ -453,44 +475,51 @@ int run(const Options& o) {
     }
   };
 
-  // Stage 2 (rendering, this thread): apply the packet, draw, read back.
-  auto draw = [&](Packet& p, FrameBuffer& b) {
+  // Stage 2 (rendering, this thread): take the packet's stream changes (every
+  // scene), draw it in one scene (submitted: a software renderer rasterises
+  // on its own threads after this returns), and later read that scene back.
+  auto take = [&](const Packet& p) {
+    Timer tm(upload_stage);
+    std::size_t k = 0;
+    for (const IndexRange& r : p.dirty) {
+      const std::size_t len = 4 * std::size_t{r.end - r.begin};
+      std::memcpy(&mirror[4 * std::size_t{r.begin}], &p.values[k], len * sizeof(float));
+      k += len;
+    }
+    for (auto& set : scenes) set->view.update(mirror, p.dirty);
+  };
+  auto submit = [&](const Packet& p, SceneSet& set) {
     {
       Timer tm(upload_stage);
-      std::size_t k = 0;
-      for (const IndexRange& r : p.dirty) {
-        const std::size_t len = 4 * std::size_t{r.end - r.begin};
-        std::memcpy(&mirror[4 * std::size_t{r.begin}], &p.values[k], len * sizeof(float));
-        k += len;
-      }
-      view.update(mirror, p.dirty);
-      view.set_transform(p.organ_to_world);
-      for (auto& lv : lesion_views) lv->set_transform(p.organ_to_world);
-      for (std::size_t m = 0; m < mark_views.size(); ++m) {
+      set.view.set_transform(p.organ_to_world);
+      for (auto& lv : set.lesion_views) lv->set_transform(p.organ_to_world);
+      for (std::size_t m = 0; m < set.mark_views.size(); ++m) {
         const bool standing = mark_view_times[m] <= p.now && p.now < mark_view_ends[m];
-        if (standing && !mark_shown[m]) {
-          mark_views[m]->set_transform(p.organ_to_world);
-          mark_views[m]->add_to(scene.renderer());
-          mark_shown[m] = true;
-        } else if (!standing && mark_shown[m]) {
-          mark_views[m]->remove_from(scene.renderer());
-          mark_shown[m] = false;
+        if (standing && !set.mark_shown[m]) {
+          set.mark_views[m]->set_transform(p.organ_to_world);
+          set.mark_views[m]->add_to(set.scene.renderer());
+          set.mark_shown[m] = true;
+        } else if (!standing && set.mark_shown[m]) {
+          set.mark_views[m]->remove_from(set.scene.renderer());
+          set.mark_shown[m] = false;
         }
       }
-      for (std::size_t j = 0; j < p.probes.size() && j < probes.size(); ++j)
-        probes[j]->set_state(p.probes[j].world, p.probes[j].axis, p.probes[j].force, p.probes[j].in_contact, j == 0);
+      for (std::size_t j = 0; j < p.probes.size() && j < set.probes.size(); ++j)
+        set.probes[j]->set_state(p.probes[j].world, p.probes[j].axis, p.probes[j].force, p.probes[j].in_contact,
+                                 j == 0);
     }
-    {
-      Timer tm(render_stage);
-      scene.render();
-    }
+    Timer tm(render_stage);
+    set.scene.render();
+    set.scene.window().flush();
+  };
+  auto read = [&](SceneSet& set, Packet& p, FrameBuffer& b) {
     {
       Timer tm(finish_stage);
-      scene.window().finish();
+      set.scene.window().finish();
     }
     Timer tm(read_stage);
     b.rgba.resize(std::size_t{4} * o.width * o.height);
-    scene.window().read_rgba(b.rgba);
+    set.scene.window().read_rgba(b.rgba);
     b.packet = &p;
   };
 
@@ -575,7 +604,9 @@ int run(const Options& o) {
     // One stage after the other on this thread (--pipeline off).
     FrameBuffer* b = nullptr;
     free_buffers.pop(b);
-    draw(*p, *b);
+    take(*p);
+    submit(*p, *scenes[0]);
+    read(*scenes[0], *p, *b);
     encode(*b);
     free_packets.push(p);
     free_buffers.push(b);
@@ -632,16 +663,42 @@ int run(const Options& o) {
       }
     });
     try {
+      // While the re-simulation makes its first packet (the coverage's rays
+      // through the organ), each scene draws once: the software renderer
+      // compiles its shaders then, not in the first frames.
+      for (auto& set : scenes) {
+        Timer tm(warm_stage);
+        set->scene.render();
+        set->scene.window().finish();
+      }
+      // Frame n is drawn in scene n % 2 and read back after frame n + 1 was
+      // submitted in the other scene.
       Packet* p = nullptr;
       FrameBuffer* b = nullptr;
+      Packet* drawn = nullptr;
+      FrameBuffer* drawn_buffer = nullptr;
+      SceneSet* drawn_scene = nullptr;
+      std::size_t turn = 0;
       for (;;) {
         {
           Timer tm(render_stage.wait);
           if (!to_render.pop(p)) break;
           if (!free_buffers.pop(b)) break;
         }
-        draw(*p, *b);
-        to_encode.push(b);
+        take(*p);
+        SceneSet& set = *scenes[turn++ % scenes.size()];
+        submit(*p, set);
+        if (drawn) {
+          read(*drawn_scene, *drawn, *drawn_buffer);
+          to_encode.push(drawn_buffer);
+        }
+        drawn = p;
+        drawn_buffer = b;
+        drawn_scene = &set;
+      }
+      if (drawn) {
+        read(*drawn_scene, *drawn, *drawn_buffer);
+        to_encode.push(drawn_buffer);
       }
     } catch (...) {
       fail(std::current_exception());
@@ -685,8 +742,9 @@ int run(const Options& o) {
                 "waiting for a free packet %.1f\n",
                 f * sim_only, f * pack_stage.s, f * sim_stage.wait.s);
     std::printf("  rendering: upload and scene %.1f, render (submit) %.1f, render (finish) %.1f, read back "
-                "%.1f, waiting %.1f\n",
-                f * upload_stage.s, f * render_stage.s, f * finish_stage.s, f * read_stage.s, f * render_stage.wait.s);
+                "%.1f, waiting %.1f; first draw of the scenes %.0f ms in all\n",
+                f * upload_stage.s, f * render_stage.s, f * finish_stage.s, f * read_stage.s, f * render_stage.wait.s,
+                1e3 * warm_stage.s);
     std::printf("  encoding: RGBA to BGR %.1f, overlays %.1f, encode and write %.1f, waiting %.1f\n",
                 f * convert_stage.s, f * overlay_stage.s, f * encode_stage.s, f * encode_stage.wait.s);
     std::printf("  process: %.2f s CPU over %.2f s wall since start (%.2f s before the first tick: loading, scene)\n",

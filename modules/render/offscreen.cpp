@@ -426,6 +426,11 @@ void OffscreenWindow::finish() {
   glFinish();
 }
 
+void OffscreenWindow::flush() {
+  impl_->window->MakeCurrent();
+  glFlush();
+}
+
 void OffscreenWindow::read_rgba(std::span<std::uint8_t> out) {
   Impl& m = *impl_;
   const std::size_t size = static_cast<std::size_t>(m.width) * m.height * 4;

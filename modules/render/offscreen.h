@@ -102,6 +102,10 @@ class OffscreenWindow {
   /// software renderer draws on its own threads after render() returns, so
   /// time taken around render() alone is only its submission.
   void finish();
+  /// Hands what was drawn to OpenGL to execute (glFlush) without waiting: a
+  /// software renderer starts rasterising the frame on its threads while
+  /// the caller goes on (for example, drawing in another window).
+  void flush();
   /// Reads the last rendered frame as RGBA, bottom row first (OpenGL's
   /// order), into `out` (width x height x 4 bytes; std::invalid_argument
   /// otherwise): no allocation, no per-pixel copy.
