@@ -33,7 +33,7 @@ Coverage::Coverage(std::shared_ptr<const mesh::SurfaceMesh> mesh, double tip_rad
     : mesh_(std::move(mesh)), tree_(std::move(tree)), tip_radius_(tip_radius) {
   const std::size_t n = mesh_->vertex_count();
   if (!tree_) tree_ = std::make_shared<collision::VertexTree>(std::span<const Vec3>(mesh_->positions));
-  thickness_ = mesh::inward_thickness(*mesh_);
+  thickness_ = mesh::shared_inward_thickness(mesh_);
   area_.assign(n, 0.0);
   for (const auto& t : mesh_->triangles) {
     const double a = 0.5 * (mesh_->positions[t[1]] - mesh_->positions[t[0]])
@@ -52,12 +52,12 @@ Coverage::Coverage(std::shared_ptr<const mesh::SurfaceMesh> mesh, double tip_rad
 Index Coverage::nearest(const Vec3& p) const { return tree_->nearest(p).vertex; }
 
 Level Coverage::level_at(const Vec3& point, double depth) const {
-  return level_of(depth, thickness_[nearest(point)], true);
+  return level_of(depth, (*thickness_)[nearest(point)], true);
 }
 
 Level Coverage::add(const Vec3& point, double depth, std::uint32_t episode, double force) {
   const Index start = nearest(point);
-  const Level level = level_of(depth, thickness_[start], true);
+  const Level level = level_of(depth, (*thickness_)[start], true);
   if (level == Level::None) return level;
   const double a = std::sqrt(tip_radius_ * depth);  // Hertz contact radius, m
   const Vec3 n = mesh_->normals[start];

@@ -37,8 +37,9 @@ Level level_of(double depth, double thickness, bool in_contact);
 /// Coverage of a mesh, accumulated contact by contact. Not thread-safe.
 class Coverage {
  public:
-  /// `tip_radius` in m. Builds the thickness (O(V log V)); `tree` may be
-  /// null (one is built).
+  /// `tip_radius` in m. Takes the mesh's thickness from
+  /// mesh::shared_inward_thickness (computed, O(V log V), unless another
+  /// user of this mesh object holds it); `tree` may be null (one is built).
   Coverage(std::shared_ptr<const mesh::SurfaceMesh> mesh, double tip_radius,
            std::shared_ptr<const collision::VertexTree> tree = nullptr);
 
@@ -62,7 +63,7 @@ class Coverage {
   const std::vector<double>& area() const { return area_; }
   /// Per vertex: distinct contact episodes that covered it (capped at 255).
   const std::vector<std::uint8_t>& episodes() const { return episodes_; }
-  const std::vector<double>& thickness() const { return thickness_; }
+  const std::vector<double>& thickness() const { return *thickness_; }
   /// Per vertex: the largest force (N) of a contact that covered it.
   const std::vector<double>& peak_force() const { return peak_force_; }
 
@@ -70,7 +71,8 @@ class Coverage {
   std::shared_ptr<const mesh::SurfaceMesh> mesh_;
   std::shared_ptr<const collision::VertexTree> tree_;
   double tip_radius_;
-  std::vector<double> thickness_, area_, peak_force_;
+  std::shared_ptr<const std::vector<double>> thickness_;  // shared with the mesh's other users (m)
+  std::vector<double> area_, peak_force_;
   std::vector<Level> highest_;
   std::vector<std::uint8_t> mask_, episodes_;
   std::vector<std::uint32_t> last_episode_;

@@ -51,13 +51,22 @@ bool usable(const Contact& c) {
 
 }  // namespace
 
-std::vector<double> drawn_displacement_limits(const mesh::SurfaceMesh& mesh, double thickness_fraction,
-                                              double curvature_fraction) {
-  std::vector<double> limit = mesh::inward_thickness(mesh);
+namespace {
+
+std::vector<double> limits_from(const std::vector<double>& thickness, const mesh::SurfaceMesh& mesh,
+                                double thickness_fraction, double curvature_fraction) {
+  std::vector<double> limit = thickness;
   const std::vector<double> radius = mesh::convex_radius(mesh);
   for (std::size_t i = 0; i < limit.size(); ++i)
     limit[i] = std::min(thickness_fraction * limit[i], curvature_fraction * radius[i]);
   return limit;
+}
+
+}  // namespace
+
+std::vector<double> drawn_displacement_limits(const mesh::SurfaceMesh& mesh, double thickness_fraction,
+                                              double curvature_fraction) {
+  return limits_from(mesh::inward_thickness(mesh), mesh, thickness_fraction, curvature_fraction);
 }
 
 namespace {
@@ -83,8 +92,9 @@ std::shared_ptr<const std::vector<double>> shared_drawn_limits(
         if (auto limits = e.limits.lock()) return limits;
     }
   }
+  // The thickness too is shared by mesh (a coverage of the same mesh may hold it).
   auto limits = std::make_shared<const std::vector<double>>(
-      drawn_displacement_limits(*mesh, thickness_fraction, curvature_fraction));
+      limits_from(*mesh::shared_inward_thickness(mesh), *mesh, thickness_fraction, curvature_fraction));
   std::lock_guard<std::mutex> lock(mutex);
   entries.push_back({mesh, thickness_fraction, curvature_fraction, limits});
   return limits;

@@ -6,6 +6,7 @@
 
 #include "mesh/surface_mesh.h"
 
+#include <memory>
 #include <vector>
 
 namespace palpa::mesh {
@@ -18,6 +19,13 @@ namespace palpa::mesh {
 /// triangles, O(T log T) to build, and casts the rays on up to 8 threads.
 /// Deterministic (the same bits however the rays are shared out).
 std::vector<double> inward_thickness(const SurfaceMesh& mesh);
+
+/// inward_thickness(*mesh), shared by mesh object: while a result is held
+/// (by anyone), a later call for the same mesh object returns it instead of
+/// casting the rays again (a session's surfaces, its coverage and its
+/// calibration press read one mesh). The mesh must not change while shared
+/// (Palpa's meshes are const once built). Thread-safe.
+std::shared_ptr<const std::vector<double>> shared_inward_thickness(const std::shared_ptr<const SurfaceMesh>& mesh);
 
 /// Per vertex: the convex radius of curvature (m), the smallest
 /// |p_j - p_i| / |n_j - n_i| over the neighbours j whose normals converge

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 namespace palpa::mesh {
 namespace {
@@ -58,6 +59,23 @@ TEST(Thickness, FlattenedSphereIsThinAtItsPoles) {
   EXPECT_NEAR(t[side], 2 * r, 0.01 * r);
   EXPECT_GT(k[top], 5 * r);
   EXPECT_LT(k[side], 0.05 * r);
+}
+
+TEST(Thickness, SharedByMeshObjectWhileHeld) {
+  const auto mesh = std::make_shared<const SurfaceMesh>(make_sphere(2000, 0.05));
+  const std::vector<double> direct = inward_thickness(*mesh);
+  auto first = shared_inward_thickness(mesh);
+  EXPECT_EQ(*first, direct);  // the same values, bit for bit
+  // Held: the same result for the same object.
+  EXPECT_EQ(shared_inward_thickness(mesh).get(), first.get());
+  // Another object with the same vertices is another mesh: its own result.
+  const auto copy = std::make_shared<const SurfaceMesh>(*mesh);
+  auto other = shared_inward_thickness(copy);
+  EXPECT_NE(other.get(), first.get());
+  EXPECT_EQ(*other, direct);
+  // Released by everyone: computed again, the same values.
+  first.reset();
+  EXPECT_EQ(*shared_inward_thickness(mesh), direct);
 }
 
 TEST(Thickness, OpenPlaneHasNoOppositeSide) {
