@@ -134,10 +134,57 @@ cv::Mat coverage_map(const assess::Coverage& coverage, const Vec3& view_dir, con
   return CoverageMap(coverage.mesh(), view_dir, up, size).draw(coverage);
 }
 
+namespace {
+const cv::Scalar kMapBackground(40, 40, 40);
+}
+
+void CoverageMap::draw_dot(cv::Mat& img, const Dot& d, assess::Level level, cv::Point origin) const {
+  cv::circle(img, d.at - origin, radius_, level_colour(level) * d.shade, cv::FILLED);
+}
+
 cv::Mat CoverageMap::draw(const assess::Coverage& coverage) const {
-  cv::Mat img(size_, size_, CV_8UC3, cv::Scalar(40, 40, 40));
-  for (const Dot& d : dots_) cv::circle(img, d.at, radius_, level_colour(coverage.highest()[d.vertex]) * d.shade, cv::FILLED);
+  cv::Mat img(size_, size_, CV_8UC3, kMapBackground);
+  for (const Dot& d : dots_) draw_dot(img, d, coverage.highest()[d.vertex], {0, 0});
   return img;
+}
+
+bool CoverageMap::update(const assess::Coverage& coverage) {
+  const auto& level = coverage.highest();
+  if (image_.empty()) {
+    image_ = draw(coverage);
+    drawn_.resize(dots_.size());
+    for (std::size_t k = 0; k < dots_.size(); ++k) drawn_[k] = level[dots_[k].vertex];
+    return true;
+  }
+  // The tiles a changed dot touches; a filled circle (no anti-aliasing)
+  // stays within radius_ of its centre.
+  bool changed = false;
+  const auto tile_of = [&](int v) { return std::clamp(v / kTile, 0, tiles_ - 1); };
+  for (std::size_t k = 0; k < dots_.size(); ++k) {
+    const assess::Level now = level[dots_[k].vertex];
+    if (now == drawn_[k]) continue;
+    drawn_[k] = now;
+    changed = true;
+    const cv::Point at = dots_[k].at;
+    for (int ty = tile_of(at.y - radius_); ty <= tile_of(at.y + radius_); ++ty)
+      for (int tx = tile_of(at.x - radius_); tx <= tile_of(at.x + radius_); ++tx) tile_dirty_[ty * tiles_ + tx] = 1;
+  }
+  if (!changed) return false;
+  // Each dirty tile afresh: background, then every dot touching it in order,
+  // drawn into the tile alone (integer offsets: the pixels draw() gives).
+  for (int t = 0; t < tiles_ * tiles_; ++t) {
+    if (!tile_dirty_[t]) continue;
+    tile_dirty_[t] = 0;
+    const cv::Rect r = cv::Rect((t % tiles_) * kTile, (t / tiles_) * kTile, kTile, kTile) & cv::Rect(0, 0, size_, size_);
+    if (r.area() <= 0) continue;
+    cv::Mat tile = image_(r);
+    tile.setTo(kMapBackground);
+    for (std::uint32_t q = tile_offsets_[t]; q < tile_offsets_[t + 1]; ++q) {
+      const std::uint32_t k = tile_dots_[q];
+      draw_dot(tile, dots_[k], drawn_[k], r.tl());
+    }
+  }
+  return true;
 }
 
 CoverageMap::CoverageMap(const mesh::SurfaceMesh& m, const Vec3& view_dir, const Vec3& up, int size)
@@ -165,6 +212,34 @@ CoverageMap::CoverageMap(const mesh::SurfaceMesh& m, const Vec3& view_dir, const
     const int y = static_cast<int>(size * (0.5 - (p.dot(v) - cv_) / ext));
     dots_.push_back({i, {x, y}, 0.55 + 0.45 * m.normals[i].dot(w)});
   }
+  // Which dots touch which tile (for update()), in drawing order.
+  tiles_ = (size_ + kTile - 1) / kTile;
+  const auto tile_range = [&](int v, int& lo, int& hi) {
+    lo = std::max(0, (v - radius_) / kTile);
+    hi = std::min(tiles_ - 1, (v + radius_) / kTile);
+  };
+  tile_offsets_.assign(static_cast<std::size_t>(tiles_) * tiles_ + 1, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<std::uint32_t> fill(tile_offsets_.begin(), tile_offsets_.end() - 1);
+    for (std::size_t k = 0; k < dots_.size(); ++k) {
+      int x0, x1, y0, y1;
+      tile_range(dots_[k].at.x, x0, x1);
+      tile_range(dots_[k].at.y, y0, y1);
+      for (int ty = y0; ty <= y1; ++ty)
+        for (int tx = x0; tx <= x1; ++tx) {
+          const std::size_t t = static_cast<std::size_t>(ty) * tiles_ + tx;
+          if (pass == 0)
+            ++tile_offsets_[t + 1];
+          else
+            tile_dots_[fill[t]++] = static_cast<std::uint32_t>(k);
+        }
+    }
+    if (pass == 0) {
+      std::partial_sum(tile_offsets_.begin(), tile_offsets_.end(), tile_offsets_.begin());
+      tile_dots_.resize(tile_offsets_.back());
+    }
+  }
+  tile_dirty_.assign(static_cast<std::size_t>(tiles_) * tiles_, 0);
 }
 
 }  // namespace palpa::app

@@ -11,6 +11,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <cstdint>
 #include <deque>
 #include <string>
 #include <utility>
@@ -43,7 +44,14 @@ void draw_text_block(cv::Mat& img, const std::vector<std::string>& lines, cv::Po
 class CoverageMap {
  public:
   CoverageMap(const mesh::SurfaceMesh& mesh, const Vec3& view_dir, const Vec3& up, int size);
+  /// The whole map, drawn afresh.
   cv::Mat draw(const assess::Coverage& coverage) const;
+  /// Brings image() up to `coverage`, redrawing only the tiles of the map
+  /// where a vertex's level changed since the last update (the first draws
+  /// all): the same pixels as draw(). False when nothing changed.
+  bool update(const assess::Coverage& coverage);
+  /// The map as the last update() left it (empty before the first).
+  const cv::Mat& image() const { return image_; }
 
  private:
   struct Dot {
@@ -51,8 +59,17 @@ class CoverageMap {
     cv::Point at;
     double shade;
   };
+  void draw_dot(cv::Mat& img, const Dot& d, assess::Level level, cv::Point origin) const;
   std::vector<Dot> dots_;  // back to front
   int size_, radius_;
+  // update(): the image, each dot's level in it, and per tile of kTile x
+  // kTile pixels the dots that touch it, in drawing order.
+  static constexpr int kTile = 16;
+  int tiles_ = 0;  // per side
+  cv::Mat image_;
+  std::vector<assess::Level> drawn_;
+  std::vector<std::uint32_t> tile_offsets_, tile_dots_;
+  std::vector<std::uint8_t> tile_dirty_;
 };
 
 /// CoverageMap(...).draw(coverage), once.

@@ -399,7 +399,6 @@ int run(const Options& o) {
     if (with_coverage || with_levels) coverage = std::make_unique<assess::Coverage>(mesh, s.tip_radius, s.model->tree);
     if (with_coverage) coverage_map = std::make_unique<app::CoverageMap>(*mesh, view_dir, Vec3::UnitZ(), map_side);
   };
-  std::vector<assess::Level> drawn_levels;  // the coverage the last map was drawn from
   std::shared_ptr<const cv::Mat> map_image;
   std::vector<std::uint32_t> episode(probe_count, 0);
   std::vector<bool> was_in(probe_count, false);
@@ -467,10 +466,9 @@ int run(const Options& o) {
     p.force = force;
     p.over_limit = over_limit;
     if (coverage_map) {
-      if (!map_image || drawn_levels != coverage->highest()) {
-        map_image = std::make_shared<const cv::Mat>(coverage_map->draw(*coverage));
-        drawn_levels = coverage->highest();
-      }
+      // A copy per change: packets in flight keep the map they were made with.
+      if (coverage_map->update(*coverage) || !map_image)
+        map_image = std::make_shared<const cv::Mat>(coverage_map->image().clone());
       p.coverage_map = map_image;
     }
   };
