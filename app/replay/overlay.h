@@ -30,7 +30,8 @@ void draw_force_strip(cv::Mat& img, const cv::Rect& area, const std::vector<std:
                       double now, double span, double limit);
 
 /// The timeline in `area`: the session from 0 to `duration` (s), the
-/// replayed window, `now`, the snapshots, the marks and the times over the limit.
+/// replayed window `from` .. `to` (s), `now` (s), the snapshots, the marks
+/// and the times over the limit (s).
 void draw_timeline(cv::Mat& img, const cv::Rect& area, double now, double duration, double from, double to,
                    const std::vector<double>& snapshots, const std::vector<double>& marks,
                    const std::vector<std::pair<double, double>>& over_limit);

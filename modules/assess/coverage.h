@@ -49,9 +49,10 @@ class Coverage {
   /// contact) for revisits.
   Level add(const Vec3& point, double depth, std::uint32_t episode, double force = 0);
 
-  /// The level of the contact at `point` without adding it.
+  /// The level of the contact at `point` (organ frame, m) with indentation
+  /// `depth` (m), without adding it.
   Level level_at(const Vec3& point, double depth) const;
-  /// Nearest vertex of a point.
+  /// Nearest vertex of `point` (organ frame, m).
   Index nearest(const Vec3& point) const;
 
   const mesh::SurfaceMesh& mesh() const { return *mesh_; }
@@ -63,6 +64,7 @@ class Coverage {
   const std::vector<double>& area() const { return area_; }
   /// Per vertex: distinct contact episodes that covered it (capped at 255).
   const std::vector<std::uint8_t>& episodes() const { return episodes_; }
+  /// Per vertex: the inward thickness (m) the levels are fractions of.
   const std::vector<double>& thickness() const { return *thickness_; }
   /// Per vertex: the largest force (N) of a contact that covered it.
   const std::vector<double>& peak_force() const { return peak_force_; }

@@ -25,9 +25,10 @@ std::uint64_t hilbert_key(const Vec3& p, const Vec3& lo, const Vec3& hi);
 /// rounding, and bit for bit what a session file's reader computes from the
 /// positions and triangles it keeps); adjacency (vertex_neighbors,
 /// vertex_triangles, triangle_neighbors) is rebuilt when the mesh had it.
-/// The geometry, the topology and every per-vertex value are those of the
-/// input, only numbered differently. Idempotent: a mesh
-/// already in this order comes back unchanged. Returns new_of_old (size:
+/// The geometry, the topology and every other per-vertex value are those
+/// of the input, only numbered differently; normals a caller set by other
+/// means are replaced by compute_normals'. Idempotent: a second call
+/// changes nothing. Returns new_of_old (size:
 /// the vertex count): vertex i of the input is vertex new_of_old[i].
 std::vector<Index> reorder_spatially(SurfaceMesh& mesh);
 

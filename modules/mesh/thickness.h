@@ -20,11 +20,14 @@ namespace palpa::mesh {
 /// Deterministic (the same bits however the rays are shared out).
 std::vector<double> inward_thickness(const SurfaceMesh& mesh);
 
-/// inward_thickness(*mesh), shared by mesh object: while a result is held
-/// (by anyone), a later call for the same mesh object returns it instead of
-/// casting the rays again (a session's surfaces, its coverage and its
-/// calibration press read one mesh). The mesh must not change while shared
-/// (Palpa's meshes are const once built). Thread-safe.
+/// inward_thickness(*mesh) (m per vertex), shared by mesh object: while a
+/// result is held (by anyone), a later call for the same mesh object returns
+/// it instead of casting the rays again. A session's coverage holds it for
+/// its life; its surfaces' drawn limits (deform) are computed from it and
+/// keep only the limits, so they reuse the coverage's rays when the coverage
+/// is made first (palpa-replay and palpa-assess make it first). The mesh
+/// must not change while shared (Palpa's meshes are const once built).
+/// Thread-safe.
 std::shared_ptr<const std::vector<double>> shared_inward_thickness(const std::shared_ptr<const SurfaceMesh>& mesh);
 
 /// Per vertex: the convex radius of curvature (m), the smallest

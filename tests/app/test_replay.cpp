@@ -155,8 +155,10 @@ TEST_F(ReplayCli, FramesAndVideo) {
 }
 
 // The three-thread replay draws the same frames as the stages run one after
-// the other, bit for bit (the same GL calls on the same data in the same
-// order; only when they run differs).
+// the other, bit for bit, though it draws them in two scenes (two GL
+// contexts) in turn, warms each scene up with a draw of the organ at rest,
+// and brings a scene's stream up to date with the changes of two packets at
+// once.
 TEST_F(ReplayCli, PipelinedFramesAreTheSequentialFrames) {
   const fs::path on = dir_ / "pipeline_on", off = dir_ / "pipeline_off";
   const std::string common = " --size 320x240 --fps 20 --from 0.2 --to 0.7";
