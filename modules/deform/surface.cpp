@@ -4,6 +4,7 @@
 
 #include "deform/surface.h"
 
+#include "core/shared_by_owner.h"
 #include "mesh/thickness.h"
 
 #include <algorithm>
@@ -11,10 +12,10 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <mutex>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -76,28 +77,11 @@ namespace {
 // mesh or limits are gone are dropped. Construction only: a lock is fine.
 std::shared_ptr<const std::vector<double>> shared_drawn_limits(
     const std::shared_ptr<const mesh::SurfaceMesh>& mesh, double thickness_fraction, double curvature_fraction) {
-  struct Entry {
-    std::weak_ptr<const mesh::SurfaceMesh> mesh;
-    double thickness_fraction, curvature_fraction;
-    std::weak_ptr<const std::vector<double>> limits;
-  };
-  static std::mutex mutex;
-  static std::vector<Entry> entries;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    std::erase_if(entries, [](const Entry& e) { return e.mesh.expired() || e.limits.expired(); });
-    for (const Entry& e : entries) {
-      const bool same_mesh = !e.mesh.owner_before(mesh) && !mesh.owner_before(e.mesh);
-      if (same_mesh && e.thickness_fraction == thickness_fraction && e.curvature_fraction == curvature_fraction)
-        if (auto limits = e.limits.lock()) return limits;
-    }
-  }
-  // The thickness too is shared by mesh (a coverage of the same mesh may hold it).
-  auto limits = std::make_shared<const std::vector<double>>(
-      limits_from(*mesh::shared_inward_thickness(mesh), *mesh, thickness_fraction, curvature_fraction));
-  std::lock_guard<std::mutex> lock(mutex);
-  entries.push_back({mesh, thickness_fraction, curvature_fraction, limits});
-  return limits;
+  static SharedByOwner<mesh::SurfaceMesh, std::vector<double>, std::pair<double, double>> cache;
+  return cache.get(mesh, {thickness_fraction, curvature_fraction}, [&] {
+    // The thickness too is shared by mesh (a coverage of the same mesh may hold it).
+    return limits_from(*mesh::shared_inward_thickness(mesh), *mesh, thickness_fraction, curvature_fraction);
+  });
 }
 
 }  // namespace

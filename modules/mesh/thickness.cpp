@@ -3,14 +3,16 @@
 
 #include "mesh/thickness.h"
 
+#include "core/shared_by_owner.h"
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
-#include <mutex>
 #include <numeric>
 #include <thread>
+#include <variant>
 
 namespace palpa::mesh {
 
@@ -218,25 +220,9 @@ std::vector<double> convex_radius(const SurfaceMesh& mesh) {
 }
 
 std::shared_ptr<const std::vector<double>> shared_inward_thickness(const std::shared_ptr<const SurfaceMesh>& mesh) {
-  // Entries whose mesh or result is gone are dropped. Construction time
-  // only (never on the haptic thread): a lock is fine.
-  struct Entry {
-    std::weak_ptr<const SurfaceMesh> mesh;
-    std::weak_ptr<const std::vector<double>> thickness;
-  };
-  static std::mutex mutex;
-  static std::vector<Entry> entries;
-  {
-    std::lock_guard<std::mutex> lock(mutex);
-    std::erase_if(entries, [](const Entry& e) { return e.mesh.expired() || e.thickness.expired(); });
-    for (const Entry& e : entries)
-      if (!e.mesh.owner_before(mesh) && !mesh.owner_before(e.mesh))
-        if (auto thickness = e.thickness.lock()) return thickness;
-  }
-  auto thickness = std::make_shared<const std::vector<double>>(inward_thickness(*mesh));
-  std::lock_guard<std::mutex> lock(mutex);
-  entries.push_back({mesh, thickness});
-  return thickness;
+  // Construction time only (never on the haptic thread): a lock is fine.
+  static SharedByOwner<SurfaceMesh, std::vector<double>, std::monostate> cache;
+  return cache.get(mesh, {}, [&] { return inward_thickness(*mesh); });
 }
 
 }  // namespace palpa::mesh
