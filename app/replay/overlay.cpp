@@ -148,6 +148,11 @@ cv::Mat CoverageMap::draw(const assess::Coverage& coverage) const {
   return img;
 }
 
+std::pair<int, int> CoverageMap::tile_span(int v) const {
+  // A filled circle (no anti-aliasing) stays within radius_ of its centre.
+  return {std::clamp((v - radius_) / kTile, 0, tiles_ - 1), std::clamp((v + radius_) / kTile, 0, tiles_ - 1)};
+}
+
 bool CoverageMap::update(const assess::Coverage& coverage) {
   const auto& level = coverage.highest();
   if (image_.empty()) {
@@ -156,18 +161,17 @@ bool CoverageMap::update(const assess::Coverage& coverage) {
     for (std::size_t k = 0; k < dots_.size(); ++k) drawn_[k] = level[dots_[k].vertex];
     return true;
   }
-  // The tiles a changed dot touches; a filled circle (no anti-aliasing)
-  // stays within radius_ of its centre.
+  // The tiles a changed dot touches.
   bool changed = false;
-  const auto tile_of = [&](int v) { return std::clamp(v / kTile, 0, tiles_ - 1); };
   for (std::size_t k = 0; k < dots_.size(); ++k) {
     const assess::Level now = level[dots_[k].vertex];
     if (now == drawn_[k]) continue;
     drawn_[k] = now;
     changed = true;
-    const cv::Point at = dots_[k].at;
-    for (int ty = tile_of(at.y - radius_); ty <= tile_of(at.y + radius_); ++ty)
-      for (int tx = tile_of(at.x - radius_); tx <= tile_of(at.x + radius_); ++tx) tile_dirty_[ty * tiles_ + tx] = 1;
+    const auto [x0, x1] = tile_span(dots_[k].at.x);
+    const auto [y0, y1] = tile_span(dots_[k].at.y);
+    for (int ty = y0; ty <= y1; ++ty)
+      for (int tx = x0; tx <= x1; ++tx) tile_dirty_[ty * tiles_ + tx] = 1;
   }
   if (!changed) return false;
   // Each dirty tile afresh: background, then every dot touching it in order,
@@ -214,17 +218,12 @@ CoverageMap::CoverageMap(const mesh::SurfaceMesh& m, const Vec3& view_dir, const
   }
   // Which dots touch which tile (for update()), in drawing order.
   tiles_ = (size_ + kTile - 1) / kTile;
-  const auto tile_range = [&](int v, int& lo, int& hi) {
-    lo = std::max(0, (v - radius_) / kTile);
-    hi = std::min(tiles_ - 1, (v + radius_) / kTile);
-  };
   tile_offsets_.assign(static_cast<std::size_t>(tiles_) * tiles_ + 1, 0);
   for (int pass = 0; pass < 2; ++pass) {
     std::vector<std::uint32_t> fill(tile_offsets_.begin(), tile_offsets_.end() - 1);
     for (std::size_t k = 0; k < dots_.size(); ++k) {
-      int x0, x1, y0, y1;
-      tile_range(dots_[k].at.x, x0, x1);
-      tile_range(dots_[k].at.y, y0, y1);
+      const auto [x0, x1] = tile_span(dots_[k].at.x);
+      const auto [y0, y1] = tile_span(dots_[k].at.y);
       for (int ty = y0; ty <= y1; ++ty)
         for (int tx = x0; tx <= x1; ++tx) {
           const std::size_t t = static_cast<std::size_t>(ty) * tiles_ + tx;

@@ -61,6 +61,8 @@ class CoverageMap {
     double shade;
   };
   void draw_dot(cv::Mat& img, const Dot& d, assess::Level level, cv::Point origin) const;
+  // The first and last tile (along either axis) a dot centred at pixel v touches.
+  std::pair<int, int> tile_span(int v) const;
   std::vector<Dot> dots_;  // back to front
   int size_, radius_;
   // update(): the image, each dot's level in it, and per tile of kTile x
