@@ -269,8 +269,10 @@ int main(int argc, char** argv) {
       const std::string v = value();
       for (std::size_t p = 0; p <= v.size();) {
         const std::size_t q = std::min(v.find(',', p), v.size());
-        const long long n = std::atoll(v.substr(p, q - p).c_str());
-        if (n < 100 || n > 20'000'000) {
+        const std::string item = v.substr(p, q - p);
+        char* end = nullptr;
+        const long long n = std::strtoll(item.c_str(), &end, 10);
+        if (item.empty() || *end != '\0' || n < 100 || n > 20'000'000) {
           std::fprintf(stderr, "palpa-render-bench: --triangles: expected counts from 100 to 20000000, got '%s'\n",
                        v.c_str());
           return 2;
