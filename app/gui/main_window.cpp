@@ -537,6 +537,8 @@ QString MainWindow::install_prepared_organ(mesh::Organ organ, const scenario::Or
 void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view, bool reset_document) {
   if (view_) vtk_->renderer->RemoveActor(view_->actor());
   view_ = std::move(view);
+  view_closed_outward_ = workbench_.organ().facts.closed_outward();
+  sync_face_culling();
   vtk_->renderer->AddActor(view_->actor());
   frame_time_ = workbench_.loop_time();
   rebuild_lesion_views();
@@ -1219,6 +1221,8 @@ bool MainWindow::open_replay(const QString& path) {
   replay_lesion_views_.clear();
   const bool same_organ = view_ && view_->mesh().positions == view->mesh().positions;
   replay_view_ = std::move(view);
+  replay_view_closed_outward_ = mesh::analyse(replay_view_->mesh()).closed_outward();
+  sync_face_culling();
   vtk_->renderer->AddActor(replay_view_->actor());
   const auto b = replay_view_->bounds();
   const double diag = std::sqrt((b[1] - b[0]) * (b[1] - b[0]) + (b[3] - b[2]) * (b[3] - b[2]) + (b[5] - b[4]) * (b[5] - b[4]));

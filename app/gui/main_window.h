@@ -331,6 +331,10 @@ class MainWindow : public QMainWindow {
   void authoring_after_new_organ();
   void apply_document(const scenario::Scenario& s);
   void sync_authoring_view();
+  /// Skips the organ's back faces where that cannot change the picture
+  /// (closed, outward, drawn opaque): about half the software renderer's
+  /// geometry work, which bounds a large organ's frame.
+  void sync_face_culling();
   void update_document_title();
   QPoint project_to_viewport(const Vec3& organ_point) const;
 
@@ -339,6 +343,7 @@ class MainWindow : public QMainWindow {
   struct Vtk;
   std::unique_ptr<Vtk> vtk_;
   std::unique_ptr<render::SurfaceView> view_;
+  bool view_closed_outward_ = false;  // view_'s organ: mesh::MeshFacts::closed_outward()
   std::map<int, std::unique_ptr<render::ProbeView>> probe_views_;
   std::unique_ptr<render::ProbeView> hover_view_;
   std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views_;  // shown lesions only
@@ -372,6 +377,7 @@ class MainWindow : public QMainWindow {
   ReplayPanel* replay_panel_ = nullptr;
   QString sessions_folder_;
   std::unique_ptr<render::SurfaceView> replay_view_;  // non-null: replaying
+  bool replay_view_closed_outward_ = false;           // replay_view_'s mesh: closed_outward()
   std::vector<std::unique_ptr<render::ProbeView>> replay_probe_views_;
   std::vector<std::unique_ptr<render::EllipsoidView>> replay_lesion_views_;
 

@@ -169,10 +169,17 @@ bool MainWindow::xray() const {
   return view_ && view_->actor()->GetProperty()->GetOpacity() < 1.0;
 }
 
+void MainWindow::sync_face_culling() {
+  // The x-ray view shows the far side through the near one.
+  if (view_) view_->set_backface_culling(view_closed_outward_ && !xray());
+  if (replay_view_) replay_view_->set_backface_culling(replay_view_closed_outward_);
+}
+
 // The x-ray view (authoring only): the organ translucent, every lesion
 // drawn; the tools' handles over it.
 void MainWindow::sync_authoring_view() {
   if (view_) view_->actor()->GetProperty()->SetOpacity(authoring_ ? kXrayOpacity : 1.0);
+  sync_face_culling();
   rebuild_lesion_views();
   const auto& f = workbench_.organ().facts;
   const double diag = (f.bbox_max - f.bbox_min).norm();

@@ -343,7 +343,7 @@ int run(const Options& o) {
   bool cull = false;
   if (o.cull) {
     const mesh::MeshFacts facts = mesh::analyse(*mesh);
-    cull = facts.closed() && facts.consistently_oriented && facts.signed_volume > 0;
+    cull = facts.closed_outward();
   }
   // Three threads: two scenes drawn in turn, so that one frame's geometry
   // (on this thread) overlaps the previous frame's rasterisation (on the

@@ -69,6 +69,10 @@ struct MeshFacts {
   /// Edge-consistent orientation: every interior edge is used once in each
   /// direction (no directed edge twice; so false whenever an edge has > 2 triangles).
   bool consistently_oriented = false;
+  /// Closed, consistently oriented and enclosing a positive volume: seen
+  /// from outside, every back face lies behind a front face, so drawing
+  /// may skip the back faces without changing the picture.
+  bool closed_outward() const { return closed() && consistently_oriented && signed_volume > 0; }
 };
 
 /// Measures the facts of a mesh (O(V + F log F)).

@@ -33,6 +33,8 @@
 #include <QToolButton>
 #include <QUndoStack>
 #include <QVTKOpenGLNativeWidget.h>
+#include <vtkActor.h>
+#include <vtkProperty.h>
 
 #include <functional>
 #include <optional>
@@ -125,6 +127,7 @@ TEST_F(AuthoringTest, PlaceMoveUndoRedoSaveAndReadBack) {
   EXPECT_TRUE(w->findChild<QAction*>("authorMode")->isChecked());
   EXPECT_TRUE(w->findChild<QDockWidget*>("authoringDock")->isVisible());
   EXPECT_TRUE(w->xray()) << "authoring draws the organ translucent";
+  EXPECT_FALSE(w->surface_view()->actor()->GetProperty()->GetBackfaceCulling()) << "the x-ray view shows the far side";
   ASSERT_TRUE(w->workbench().has_scenario()) << "a new scenario runs at once";
   EXPECT_EQ(doc->scenario().organ.path, "default");
   EXPECT_FALSE(doc->scenario().base_tissue.empty());
@@ -235,6 +238,7 @@ TEST_F(AuthoringTest, PlaceMoveUndoRedoSaveAndReadBack) {
   // Leaving authoring: the organ opaque, hidden lesions not drawn.
   w->set_authoring(false);
   EXPECT_FALSE(w->xray());
+  EXPECT_TRUE(w->surface_view()->actor()->GetProperty()->GetBackfaceCulling()) << "opaque again: back faces skipped";
   EXPECT_EQ(w->lesions_drawn(), 0u);
   EXPECT_FALSE(w->findChild<QAction*>("authorMode")->isChecked());
   EXPECT_EQ(w->mode(), WorkbenchMode::Explore) << "authoring is the Author mode";

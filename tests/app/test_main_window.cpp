@@ -22,6 +22,7 @@
 #include "tissue/tissue.h"
 
 #include <vtkActor.h>
+#include <vtkProperty.h>
 #include <vtkMatrix4x4.h>
 
 #include <QAction>
@@ -275,6 +276,43 @@ TEST_F(MainWindowTest, AVanishedRecentFileIsReportedAndForgotten) {
   EXPECT_TRUE(w->error_text().contains("does not exist")) << w->error_text().toStdString();
   EXPECT_FALSE(w->recent_files().contains(QString::fromStdString(path.string())));
   EXPECT_EQ(w->workbench().organ().mesh, mesh_before);
+}
+
+TEST_F(MainWindowTest, TheOrgansBackFacesAreSkippedOnlyWhereTheyCannotShow) {
+  // A closed, outward organ drawn opaque: back faces skipped (about half the
+  // software renderer's geometry work), and the picture is the one with them
+  // (a live window: 1 of 356 640 pixels differed, at the silhouette).
+  auto w = open_window();
+  ASSERT_TRUE(w->workbench().organ().facts.closed_outward());
+  vtkProperty* prop = w->surface_view()->actor()->GetProperty();
+  EXPECT_TRUE(prop->GetBackfaceCulling());
+  w->advance();
+  const QImage culled = w->viewport()->grabFramebuffer();
+  prop->BackfaceCullingOff();
+  w->advance();
+  const QImage drawn = w->viewport()->grabFramebuffer();
+  prop->BackfaceCullingOn();
+  ASSERT_EQ(culled.size(), drawn.size());
+  // Only where a back face ties a front face in depth at the silhouette
+  // (the depth test passes equal depths) may a pixel differ: a handful, not
+  // the thousands of a wrong choice of faces.
+  int differ = 0;
+  for (int y = 0; y < culled.height(); ++y)
+    for (int x = 0; x < culled.width(); ++x) differ += culled.pixel(x, y) != drawn.pixel(x, y);
+  EXPECT_LE(differ, culled.width() * culled.height() / 2000) << "skipping the back faces changed the picture";
+  const auto dir = palpa::test::temp_dir("gui_cull");
+  // An open organ (a sphere with a cap cut off) shows its inside through the
+  // hole: every face is drawn.
+  mesh::SurfaceMesh open = mesh::make_sphere(700, 0.05);
+  std::erase_if(open.triangles, [&](const auto& t) { return open.positions[t[0]].z() > 0.04; });
+  mesh::save_mesh(open, dir / "open.ply");
+  ASSERT_TRUE(w->open_mesh(QString::fromStdString((dir / "open.ply").string())));
+  EXPECT_FALSE(w->workbench().organ().facts.closed());
+  EXPECT_FALSE(w->surface_view()->actor()->GetProperty()->GetBackfaceCulling());
+  // A closed one again: skipped again.
+  mesh::save_mesh(mesh::make_sphere(700, 0.05), dir / "closed.ply");
+  ASSERT_TRUE(w->open_mesh(QString::fromStdString((dir / "closed.ply").string())));
+  EXPECT_TRUE(w->surface_view()->actor()->GetProperty()->GetBackfaceCulling());
 }
 
 TEST_F(MainWindowTest, ADroppedFileOpens) {
