@@ -4,7 +4,9 @@
 //   partial  our path: dirty stream ranges by glBufferSubData into a texture buffer
 //   vtk      VTK's own path: the stream array updated and Modified()
 //   static   the same mesh rendered with nothing changed
-// The three are measured frame by frame in rotating order (same core
+//   culled   partial, with back faces culled (as the workbench and the
+//            replay draw a closed, outward organ)
+// All are measured frame by frame in rotating order (same core
 // surface, same contacts), so load from other processes hits them alike.
 // Bytes are counted at GLEW's glBufferData/glBufferSubData (all of VTK's
 // uploads and ours, by target). Multisampling is off in all cases.
@@ -106,11 +108,14 @@ palpa::deform::Contact contact_at(const palpa::mesh::SurfaceMesh& mesh, const pa
 // surface drives both moving views; the static view never changes.
 std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<const palpa::mesh::SurfaceMesh>& mesh,
                                    const palpa::collision::VertexTree& tree, int contacts, const Options& o) {
-  const char* methods[3] = {"static", "partial", "vtk"};
+  constexpr int kMethods = 4;
+  const char* methods[kMethods] = {"static", "partial", "vtk", "culled"};
   SurfaceView static_view(mesh, UploadPath::PartialTextureBuffer);
   SurfaceView partial_view(mesh, UploadPath::PartialTextureBuffer);
   SurfaceView vtk_view(mesh, UploadPath::VtkModified);
-  SurfaceView* views[3] = {&static_view, &partial_view, &vtk_view};
+  SurfaceView culled_view(mesh, UploadPath::PartialTextureBuffer);
+  culled_view.set_backface_culling(true);
+  SurfaceView* views[kMethods] = {&static_view, &partial_view, &vtk_view, &culled_view};
   palpa::deform::Material mat;
   mat.stiffness = 200;
   mat.damping = 2;
@@ -142,14 +147,14 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
   }
   scene.look_at(static_view.bounds(), Vec3(0.2, -0.6, 1.0), Vec3::UnitZ());
   // First frame of each: everything uploaded.
-  for (int m = 0; m < 3; ++m) {
-    for (int k = 0; k < 3; ++k) views[k]->actor()->SetVisibility(k == m);
+  for (int m = 0; m < kMethods; ++m) {
+    for (int k = 0; k < kMethods; ++k) views[k]->actor()->SetVisibility(k == m);
     scene.render_image();
   }
 
   struct Samples {
     std::vector<double> frame_ms, upload_ms, bytes, index_bytes;
-  } samples[3];
+  } samples[kMethods];
   std::vector<double> changed, step_ms;
   GlUploadCounter counter;
   double t = 0;
@@ -178,9 +183,9 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
 
     // The frames: each view alone, in rotating order; hand over the stream
     // (not to "static"), render, finish.
-    for (int q = 0; q < 3; ++q) {
-      const int m = (f + q) % 3;
-      for (int k = 0; k < 3; ++k) views[k]->actor()->SetVisibility(k == m);
+    for (int q = 0; q < kMethods; ++q) {
+      const int m = (f + q) % kMethods;
+      for (int k = 0; k < kMethods; ++k) views[k]->actor()->SetVisibility(k == m);
       counter.reset();
       const auto f0 = Clock::now();
       if (m != 0) views[m]->update(surface.stream(), ranges);
@@ -199,7 +204,7 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
   scene.renderer()->RemoveAllViewProps();
 
   std::vector<CaseResult> rs;
-  for (int m = 0; m < 3; ++m) {
+  for (int m = 0; m < kMethods; ++m) {
     CaseResult r;
     r.triangles = mesh->triangle_count();
     r.vertices = mesh->vertex_count();
@@ -317,6 +322,7 @@ int main(int argc, char** argv) {
         const CaseResult& st = rs[0];
         const CaseResult& pa = rs[1];
         const CaseResult& vt = rs[2];
+        const CaseResult& cu = rs[3];
         const double bytes_ratio = pa.bytes_per_frame / std::max(1.0, 16.0 * pa.changed_vertices_per_frame);
         std::printf("  -> partial/static frame %.3f (target <= 1.10), vtk/static %.3f, vtk/partial %.2f; "
                     "partial bytes / (16 x changed) %.3f (target <= 1), partial index bytes %.0f (target 0), "
@@ -324,6 +330,7 @@ int main(int argc, char** argv) {
                     pa.frame_ms_median / st.frame_ms_median, vt.frame_ms_median / st.frame_ms_median,
                     vt.frame_ms_median / pa.frame_ms_median, bytes_ratio, pa.index_bytes_per_frame,
                     vt.bytes_per_frame / std::max(1.0, pa.bytes_per_frame));
+        std::printf("  -> back faces culled: %.3f of partial's frame\n", cu.frame_ms_median / pa.frame_ms_median);
         all.insert(all.end(), rs.begin(), rs.end());
       }
     }
