@@ -537,7 +537,6 @@ QString MainWindow::install_prepared_organ(mesh::Organ organ, const scenario::Or
 void MainWindow::show_new_organ(std::unique_ptr<render::SurfaceView> view, bool reset_document) {
   if (view_) vtk_->renderer->RemoveActor(view_->actor());
   view_ = std::move(view);
-  view_closed_outward_ = workbench_.organ().facts.closed_outward();
   sync_face_culling();
   vtk_->renderer->AddActor(view_->actor());
   frame_time_ = workbench_.loop_time();

@@ -343,7 +343,6 @@ class MainWindow : public QMainWindow {
   struct Vtk;
   std::unique_ptr<Vtk> vtk_;
   std::unique_ptr<render::SurfaceView> view_;
-  bool view_closed_outward_ = false;  // view_'s organ: mesh::MeshFacts::closed_outward()
   std::map<int, std::unique_ptr<render::ProbeView>> probe_views_;
   std::unique_ptr<render::ProbeView> hover_view_;
   std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views_;  // shown lesions only
@@ -377,7 +376,7 @@ class MainWindow : public QMainWindow {
   ReplayPanel* replay_panel_ = nullptr;
   QString sessions_folder_;
   std::unique_ptr<render::SurfaceView> replay_view_;  // non-null: replaying
-  bool replay_view_closed_outward_ = false;           // replay_view_'s mesh: closed_outward()
+  bool replay_view_closed_outward_ = false;           // replay_view_'s mesh: closed_outward() (its facts are not kept)
   std::vector<std::unique_ptr<render::ProbeView>> replay_probe_views_;
   std::vector<std::unique_ptr<render::EllipsoidView>> replay_lesion_views_;
 

@@ -170,8 +170,9 @@ bool MainWindow::xray() const {
 }
 
 void MainWindow::sync_face_culling() {
-  // The x-ray view shows the far side through the near one.
-  if (view_) view_->set_backface_culling(view_closed_outward_ && !xray());
+  // view_ draws the workbench's organ. The x-ray view shows the far side
+  // through the near one.
+  if (view_) view_->set_backface_culling(workbench_.organ().facts.closed_outward() && !xray());
   if (replay_view_) replay_view_->set_backface_culling(replay_view_closed_outward_);
 }
 

@@ -330,21 +330,13 @@ int run(const Options& o) {
       mark_view_points.push_back(haptics::to_vec(e.point));
     }
   }
-  Vec3 lo = mesh->positions[0], hi = lo;
-  for (const Vec3& p : mesh->positions) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  const double size = (hi - lo).norm();
+  const mesh::MeshFacts facts = mesh::analyse(*mesh);
+  const double size = (facts.bbox_max - facts.bbox_min).norm();
   const std::size_t probe_count = h.setups.size();
   const Vec3 view_dir = Vec3(0, -std::sin(0.61), std::cos(0.61)).normalized();
   // A closed, outward surface seen from outside looks the same without its
   // back faces (each lies behind a front face).
-  bool cull = false;
-  if (o.cull) {
-    const mesh::MeshFacts facts = mesh::analyse(*mesh);
-    cull = facts.closed_outward();
-  }
+  const bool cull = o.cull && facts.closed_outward();
   // Three threads: two scenes drawn in turn, so that one frame's geometry
   // (on this thread) overlaps the previous frame's rasterisation (on the
   // software renderer's threads); one stage after the other: one scene.
@@ -353,7 +345,7 @@ int run(const Options& o) {
     auto set = std::make_unique<SceneSet>(o.width, o.height, o.gl, mesh);
     set->scene.set_plain_blending(o.plain_blending);
     set->scene.add(set->view.actor());
-    if (cull) set->view.set_backface_culling(true);
+    set->view.set_backface_culling(cull);
     for (const auto& l : s.lesions) {
       if (!(l.visibility == tissue::Visibility::Shown || o.reveal)) continue;
       set->lesion_views.push_back(std::make_unique<render::EllipsoidView>(l.centre, l.semi_axes));
