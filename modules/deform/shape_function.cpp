@@ -10,7 +10,7 @@ namespace palpa::deform {
 double ShapeFunction::value(double r) const {
   // No support (bad radius) or outside it: no deformation.
   if (!(radius > 0) || !(r < radius)) return 0.0;
-  const double u = std::abs(r) / radius;
+  const double u = std::abs(r) * (1.0 / radius);  // as evaluate(): no division by the radius
   switch (kind) {
     case ShapeKind::Gaussian: {
       // exp(-r^2 / (2 sigma^2)), sigma = radius / 4, so the exponent is -8 u^2.
@@ -35,7 +35,7 @@ double ShapeFunction::derivative(double r) const {
   // Zero outside the support, as the value is constant (0) there.
   if (!(radius > 0) || !(r < radius)) return 0.0;
   const double sign = r < 0 ? -1.0 : 1.0;
-  const double u = std::abs(r) / radius;
+  const double u = std::abs(r) * (1.0 / radius);  // as evaluate(): no division by the radius
   double ds_du = 0.0;
   switch (kind) {
     case ShapeKind::Gaussian:
@@ -55,7 +55,7 @@ double ShapeFunction::derivative(double r) const {
       break;
     }
   }
-  return sign * ds_du / radius;
+  return sign * ds_du * (1.0 / radius);
 }
 
 }  // namespace palpa::deform

@@ -346,24 +346,46 @@ void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
 // ---------------------------------------------------------------------------
 // Force fields (section III.B) and normal corrections (eq. 3).
 
+// What every vertex of one contact's field shares, computed once per field
+// (the loops' stores could alias the members it is read from, so the
+// compiler would read them again for every vertex).
+struct DeformableSurface::FieldConstants {
+  double inverse_radius;  // 1/m: 1 / c.shape.radius, as ShapeFunction::evaluate computes it
+  double tiny;            // m: 1e-12 c.shape.radius; a shorter tangent has no direction
+  bool plain;             // one Linear material and no modulus scale: f = stiffness h
+  double stiffness;       // N/m: that material's (when plain)
+
+  FieldConstants(const DeformableSurface& s, const Contact& c)
+      : inverse_radius(1.0 / c.shape.radius),
+        tiny(1e-12 * c.shape.radius),
+        plain(s.integrators_.size() == 1 && s.integrators_[0].material.model == LocalModelKind::Linear &&
+              s.scale_.empty()),
+        stiffness(plain ? s.integrators_[0].material.stiffness : 0.0) {}
+};
+
 __attribute__((always_inline)) inline void DeformableSurface::add_field(Index i, const Contact& c, double depth,
-                                                                        const Vec3& d, double r) {
-  // d = P0_i - contact point (m), r = |d|. Force that holds vertex i at the
-  // shape function's height -depth S(r) (the Linear law k h written inline).
+                                                                        const Vec3& d, double r, const Vec3& n0,
+                                                                        const FieldConstants& k) {
+  // d = P0_i - contact point (m), r = |d|, n0 = N0_i. Force that holds
+  // vertex i at the shape function's height -depth S(r).
   double shape = 0.0, slope = 0.0;
-  c.shape.evaluate(r, shape, slope);
-  const Material& m = integrators_[integrator_of_[i]].material;
+  c.shape.evaluate(r, k.inverse_radius, shape, slope);
   const double h = -depth * shape;
-  // Every model's equilibrium force is linear in its moduli, so a vertex's
-  // modulus scale multiplies it.
-  const double f = m.model == LocalModelKind::Linear ? m.stiffness * h : local_model(m.model).equilibrium_force(m, h);
-  force_[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
+  if (k.plain) {
+    force_[i] += k.stiffness * h;  // the Linear law k h
+  } else {
+    const Material& m = integrators_[integrator_of_[i]].material;
+    // Every model's equilibrium force is linear in its moduli, so a vertex's
+    // modulus scale multiplies it.
+    const double f =
+        m.model == LocalModelKind::Linear ? m.stiffness * h : local_model(m.model).equilibrium_force(m, h);
+    force_[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
+  }
 
   // eq. (3): depth S'(r) along the tangential direction away from the contact.
-  const Vec3& n0 = mesh_->normals[i];
   const Vec3 t = d - d.dot(n0) * n0;
   const double len = t.norm();
-  if (len > 1e-12 * c.shape.radius) correction_[i] += (depth * slope / len) * t;
+  if (len > k.tiny) correction_[i] += (depth * slope / len) * t;
 
   if (!(flags_[i] & kForced)) {
     flags_[i] |= kForced;
@@ -376,40 +398,65 @@ void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3*
   // Breadth-first visit from the contact vertex over mesh neighbours; vertices
   // outside the support, or facing away from the contact normal n (when
   // given), are marked visited but not expanded.
-  const auto& pos = mesh_->positions;
-  const auto& nrm = mesh_->normals;
+  //
+  // Written for a pipeline that keeps several vertices in flight: a
+  // neighbour is queued without a branch (stored at the tail, which moves on
+  // only if it was not yet visited), a vertex clearly outside the support is
+  // passed over without a square root, and what a visit reads is asked for
+  // eight places ahead in the queue. The visit order, and so every bit of the
+  // fields, is that of the plain breadth-first visit.
+  const Vec3* pos = mesh_->positions.data();
+  const Vec3* nrm = mesh_->normals.data();
   const double radius = c.shape.radius;
-  bfs_queue_.clear();
-  bfs_queue_.push_back(c.vertex);
-  flags_[c.vertex] |= kVisited;
+  // Past this squared distance sqrt(r2) >= radius whatever the rounding: the
+  // roundings in radius^2 (1 + 1e-9) and in the square root are each about
+  // 1e-16 relative, far below the 1e-9 margin.
+  const double outside2 = radius * radius * (1.0 + 1e-9);
+  const FieldConstants fc(*this, c);
   const Index* offsets = mesh_->vertex_neighbors.offsets.data();
   const Index* items = mesh_->vertex_neighbors.items.data();
-  for (std::size_t head = 0; head < bfs_queue_.size(); ++head) {
-    // The neighbour list of the vertex a few places on (its offset was
-    // asked for when it was queued): no effect on results.
-    if (head + 4 < bfs_queue_.size()) __builtin_prefetch(items + offsets[bfs_queue_[head + 4]]);
-    const Index i = bfs_queue_[head];
+  std::uint8_t* flags = flags_.data();
+  if (bfs_queue_.size() < 64) bfs_queue_.resize(64);
+  Index* queue = bfs_queue_.data();
+  std::size_t tail = 0;
+  queue[tail++] = c.vertex;
+  flags[c.vertex] |= kVisited;
+  for (std::size_t head = 0; head < tail; ++head) {
+    // No effect on results: on a 1M-vertex mesh these are cache misses.
+    if (head + 8 < tail) {
+      const Index a = queue[head + 8];
+      __builtin_prefetch(pos + a);
+      __builtin_prefetch(nrm + a);
+      __builtin_prefetch(offsets + a);
+      __builtin_prefetch(force_.data() + a, 1);
+      __builtin_prefetch(correction_.data() + a, 1);
+    }
+    if (head + 4 < tail) __builtin_prefetch(items + offsets[queue[head + 4]]);
+    const Index i = queue[head];
     const Vec3 d = pos[i] - c.point;
-    const double r = d.norm();
+    const double r2 = d.squaredNorm();
+    if (r2 > outside2) continue;
+    const double r = std::sqrt(r2);  // = d.norm(), bit for bit
     if (!(r < radius)) continue;
     if (n && nrm[i].dot(*n) < options_.min_normal_cosine) continue;
-    add_field(i, c, depth, d, r);
-    for (Index j : mesh_->vertex_neighbors.row(i)) {
-      if (!(flags_[j] & kVisited)) {
-        flags_[j] |= kVisited;
-        bfs_queue_.push_back(j);
-        // Visited a ring later: ask for what its visit reads now (no
-        // effect on results; on a 1M-vertex mesh these are cache misses).
-        __builtin_prefetch(pos.data() + j);
-        __builtin_prefetch(nrm.data() + j);
-        __builtin_prefetch(mesh_->vertex_neighbors.offsets.data() + j);
-        __builtin_prefetch(force_.data() + j, 1);
-        __builtin_prefetch(correction_.data() + j, 1);
-      }
+    add_field(i, c, depth, d, r, nrm[i], fc);
+    const Index begin = offsets[i];
+    const Index end = offsets[i + 1];
+    if (tail + (end - begin) > bfs_queue_.size()) {
+      bfs_queue_.resize(std::max(2 * bfs_queue_.size(), tail + (end - begin)));
+      queue = bfs_queue_.data();
+    }
+    for (Index k = begin; k < end; ++k) {
+      const Index j = items[k];
+      const std::uint8_t f = flags[j];
+      queue[tail] = j;
+      flags[j] = static_cast<std::uint8_t>(f | kVisited);
+      tail += 1u - ((f >> 2) & 1u);  // kVisited == 1 << 2
     }
   }
+  static_assert(kVisited == 1u << 2);
   // Clear the visit marks for the next contact.
-  for (Index i : bfs_queue_) flags_[i] &= static_cast<std::uint8_t>(~kVisited);
+  for (std::size_t k = 0; k < tail; ++k) flags[queue[k]] &= static_cast<std::uint8_t>(~kVisited);
 }
 
 void DeformableSurface::field_by_scan(const Contact& c, double depth, const Vec3& n) {
@@ -419,13 +466,14 @@ void DeformableSurface::field_by_scan(const Contact& c, double depth, const Vec3
   const auto& nrm = mesh_->normals;
   const double radius = c.shape.radius;
   const double reject2 = 2.0 * radius * radius;  // cheap early rejection, safely above radius^2
+  const FieldConstants fc(*this, c);
   const Index count = static_cast<Index>(pos.size());
   for (Index i = 0; i < count; ++i) {
     const Vec3 d = pos[i] - c.point;
     if (d.squaredNorm() > reject2) continue;
     const double r = d.norm();
     if (!(r < radius) || nrm[i].dot(n) < options_.min_normal_cosine) continue;
-    add_field(i, c, depth, d, r);
+    add_field(i, c, depth, d, r, nrm[i], fc);
   }
 }
 

@@ -267,7 +267,9 @@ class DeformableSurface {
 
   void prepare_step(double dt);
   void apply_fields();
-  void add_field(Index i, const Contact& c, double depth, const Vec3& d, double r);
+  struct FieldConstants;  // what every vertex of one contact's field shares
+  void add_field(Index i, const Contact& c, double depth, const Vec3& d, double r, const Vec3& n0,
+                 const FieldConstants& k);
   void field_by_bfs(const Contact& c, double depth, const Vec3* n);
   void field_by_scan(const Contact& c, double depth, const Vec3& n);
   double field_depth(const Contact& c) const;
