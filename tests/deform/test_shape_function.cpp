@@ -92,14 +92,23 @@ TEST(ShapeFunction, VolumeConservingIntegratesToZeroOverAPlane) {
 
 TEST(ShapeFunction, EvaluateGivesValueAndDerivativeBits) {
   // evaluate() is what the force fields call: the same bits as the two
-  // separate functions, inside, at and beyond the support, for r < 0 too.
+  // separate functions, inside, at and beyond the support, for r < 0 too;
+  // also with the inverse radius the field computes once (radii whose
+  // inverse is not exact in binary).
   for (ShapeKind kind : {ShapeKind::Gaussian, ShapeKind::Wendland, ShapeKind::VolumeConserving}) {
-    const ShapeFunction s{kind, 0.02};
-    for (double r : {0.0, 1e-9, 0.003, 0.0071, 0.0199999, 0.02, 0.03, -0.004}) {
-      double value = -1, slope = -1;
-      s.evaluate(r, value, slope);
-      EXPECT_EQ(value, s.value(r)) << "r " << r;
-      EXPECT_EQ(slope, s.derivative(r)) << "r " << r;
+    for (double radius : {0.02, 0.015, 0.0123}) {
+      const ShapeFunction s{kind, radius};
+      for (double f : {0.0, 5e-8, 0.15, 0.355, 0.999995, 1.0, 1.5, -0.2}) {
+        const double r = f * radius;
+        double value = -1, slope = -1;
+        s.evaluate(r, value, slope);
+        EXPECT_EQ(value, s.value(r)) << "r " << r;
+        EXPECT_EQ(slope, s.derivative(r)) << "r " << r;
+        double value2 = -1, slope2 = -1;
+        s.evaluate(r, 1.0 / radius, value2, slope2);
+        EXPECT_EQ(value2, value) << "r " << r;
+        EXPECT_EQ(slope2, slope) << "r " << r;
+      }
     }
   }
 }
