@@ -403,8 +403,8 @@ void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3*
   // neighbour is queued without a branch (stored at the tail, which moves on
   // only if it was not yet visited), a vertex clearly outside the support is
   // passed over without a square root, and what a visit reads is asked for
-  // eight places ahead in the queue. The visit order, and so every bit of the
-  // fields, is that of the plain breadth-first visit.
+  // eight places ahead in the queue. The visit order is that of the plain
+  // breadth-first visit, so the fields are bit for bit the ones it gives.
   const Vec3* pos = mesh_->positions.data();
   const Vec3* nrm = mesh_->normals.data();
   const double radius = c.shape.radius;
