@@ -395,16 +395,28 @@ __attribute__((always_inline)) inline void DeformableSurface::add_field(Index i,
 }
 
 void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3* n) {
+  const FieldConstants fc(*this, c);
+  if (fc.plain) visit_field<true>(c, depth, n, fc);
+  else visit_field<false>(c, depth, n, fc);
+}
+
+template <bool kLight>
+void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* n, const FieldConstants& fc) {
   // Breadth-first visit from the contact vertex over mesh neighbours; vertices
   // outside the support, or facing away from the contact normal n (when
-  // given), are marked visited but not expanded.
+  // given), are marked visited but not expanded. The visit order is that of
+  // the plain breadth-first visit, so the fields are bit for bit the ones it
+  // gives, whichever way the queue is kept.
   //
-  // Written for a pipeline that keeps several vertices in flight: a
-  // neighbour is queued without a branch (stored at the tail, which moves on
-  // only if it was not yet visited), a vertex clearly outside the support is
-  // passed over without a square root, and what a visit reads is asked for
-  // eight places ahead in the queue. The visit order is that of the plain
-  // breadth-first visit, so the fields are bit for bit the ones it gives.
+  // A vertex clearly outside the support is passed over without a square
+  // root. How neighbours are queued depends on the work per vertex, as
+  // measured (docs/PERFORMANCE.md, Round 4): where the field's force is the
+  // Linear law inline (kLight), a neighbour is queued without a branch
+  // (stored at the tail, which moves on only if it was not yet visited) and
+  // what a visit reads is asked for eight places ahead in the queue; where
+  // each vertex calls its model (Hertz, scaled moduli), the plain branch per
+  // neighbour, asking for what the new one's visit will read when it is
+  // queued, was faster.
   const Vec3* pos = mesh_->positions.data();
   const Vec3* nrm = mesh_->normals.data();
   const double radius = c.shape.radius;
@@ -412,7 +424,6 @@ void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3*
   // roundings in radius^2 (1 + 1e-9) and in the square root are each about
   // 1e-16 relative, far below the 1e-9 margin.
   const double outside2 = radius * radius * (1.0 + 1e-9);
-  const FieldConstants fc(*this, c);
   const Index* offsets = mesh_->vertex_neighbors.offsets.data();
   const Index* items = mesh_->vertex_neighbors.items.data();
   std::uint8_t* flags = flags_.data();
@@ -423,13 +434,15 @@ void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3*
   flags[c.vertex] |= kVisited;
   for (std::size_t head = 0; head < tail; ++head) {
     // No effect on results: on a 1M-vertex mesh these are cache misses.
-    if (head + 8 < tail) {
-      const Index a = queue[head + 8];
-      __builtin_prefetch(pos + a);
-      __builtin_prefetch(nrm + a);
-      __builtin_prefetch(offsets + a);
-      __builtin_prefetch(force_.data() + a, 1);
-      __builtin_prefetch(correction_.data() + a, 1);
+    if constexpr (kLight) {
+      if (head + 8 < tail) {
+        const Index a = queue[head + 8];
+        __builtin_prefetch(pos + a);
+        __builtin_prefetch(nrm + a);
+        __builtin_prefetch(offsets + a);
+        __builtin_prefetch(force_.data() + a, 1);
+        __builtin_prefetch(correction_.data() + a, 1);
+      }
     }
     if (head + 4 < tail) __builtin_prefetch(items + offsets[queue[head + 4]]);
     const Index i = queue[head];
@@ -448,10 +461,20 @@ void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3*
     }
     for (Index k = begin; k < end; ++k) {
       const Index j = items[k];
-      const std::uint8_t f = flags[j];
-      queue[tail] = j;
-      flags[j] = static_cast<std::uint8_t>(f | kVisited);
-      tail += 1u - ((f >> 2) & 1u);  // kVisited == 1 << 2
+      if constexpr (kLight) {
+        const std::uint8_t f = flags[j];
+        queue[tail] = j;
+        flags[j] = static_cast<std::uint8_t>(f | kVisited);
+        tail += 1u - ((f >> 2) & 1u);  // kVisited == 1 << 2
+      } else if (!(flags[j] & kVisited)) {
+        flags[j] |= kVisited;
+        queue[tail++] = j;
+        __builtin_prefetch(pos + j);
+        __builtin_prefetch(nrm + j);
+        __builtin_prefetch(offsets + j);
+        __builtin_prefetch(force_.data() + j, 1);
+        __builtin_prefetch(correction_.data() + j, 1);
+      }
     }
   }
   static_assert(kVisited == 1u << 2);

@@ -271,6 +271,8 @@ class DeformableSurface {
   void add_field(Index i, const Contact& c, double depth, const Vec3& d, double r, const Vec3& n0,
                  const FieldConstants& k);
   void field_by_bfs(const Contact& c, double depth, const Vec3* n);
+  template <bool kLight>
+  void visit_field(const Contact& c, double depth, const Vec3* n, const FieldConstants& fc);
   void field_by_scan(const Contact& c, double depth, const Vec3& n);
   double field_depth(const Contact& c) const;
   void write_stream(Index i);
