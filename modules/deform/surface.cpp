@@ -427,22 +427,23 @@ void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* 
   const Index* offsets = mesh_->vertex_neighbors.offsets.data();
   const Index* items = mesh_->vertex_neighbors.items.data();
   std::uint8_t* flags = flags_.data();
+  // Asks for the lines vertex v's visit reads (no effect on results: on a
+  // 1M-vertex mesh these are cache misses).
+  auto ask_for = [&](Index v) {
+    __builtin_prefetch(pos + v);
+    __builtin_prefetch(nrm + v);
+    __builtin_prefetch(offsets + v);
+    __builtin_prefetch(force_.data() + v, 1);
+    __builtin_prefetch(correction_.data() + v, 1);
+  };
   if (bfs_queue_.size() < 64) bfs_queue_.resize(64);
   Index* queue = bfs_queue_.data();
   std::size_t tail = 0;
   queue[tail++] = c.vertex;
   flags[c.vertex] |= kVisited;
   for (std::size_t head = 0; head < tail; ++head) {
-    // No effect on results: on a 1M-vertex mesh these are cache misses.
     if constexpr (kLight) {
-      if (head + 8 < tail) {
-        const Index a = queue[head + 8];
-        __builtin_prefetch(pos + a);
-        __builtin_prefetch(nrm + a);
-        __builtin_prefetch(offsets + a);
-        __builtin_prefetch(force_.data() + a, 1);
-        __builtin_prefetch(correction_.data() + a, 1);
-      }
+      if (head + 8 < tail) ask_for(queue[head + 8]);
     }
     if (head + 4 < tail) __builtin_prefetch(items + offsets[queue[head + 4]]);
     const Index i = queue[head];
@@ -469,11 +470,7 @@ void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* 
       } else if (!(flags[j] & kVisited)) {
         flags[j] |= kVisited;
         queue[tail++] = j;
-        __builtin_prefetch(pos + j);
-        __builtin_prefetch(nrm + j);
-        __builtin_prefetch(offsets + j);
-        __builtin_prefetch(force_.data() + j, 1);
-        __builtin_prefetch(correction_.data() + j, 1);
+        ask_for(j);
       }
     }
   }
