@@ -408,6 +408,8 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
       tissue_tick_.dynamic_factor[r] = field_->dynamic_factor(r, t, state_.reactions);
     tissue = &tissue_tick_;
   }
+  last_dense_ = dense;
+  last_tissue_ = tissue != nullptr;
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
               std::span<ProbeMemory>(memory, dense), std::span<ProbeOutput>(probe_outputs_.data(), dense),
               state_.force, state_.shape, tissue);
@@ -502,6 +504,16 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     state_.pending = DeformEdits{};
   }
   return due;
+}
+
+// The last tick's haptic_tick again, from copies of the memories it left:
+// same reads, nothing kept.
+void LoopCore::warm_caches(const deform::DeformableSurface& surface) noexcept {
+  const std::size_t dense = last_dense_;
+  for (std::size_t d = 0; d < dense; ++d) warm_memory_[d] = state_.memory[slot_of_[d]];
+  haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
+              std::span<ProbeMemory>(warm_memory_.data(), dense), std::span<ProbeOutput>(warm_outputs_.data(), dense),
+              state_.force, state_.shape, last_tissue_ ? &tissue_tick_ : nullptr);
 }
 
 }  // namespace palpa::haptics

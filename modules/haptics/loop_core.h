@@ -310,6 +310,16 @@ class LoopCore {
   /// Applies a command at time t (s). Out-of-range probes are ignored.
   void apply(const LoopCommand& command, double t) noexcept;
 
+  /// Brings the data the next tick reads back into the cache: runs the last
+  /// tick's collision and force again against `surface`, at the same probe
+  /// positions, into scratch memories and outputs. Changes nothing a tick,
+  /// a result or state() shows. For a caller that has just run a
+  /// deformation step on the tick's thread (Session::deform): the step
+  /// streams megabytes through the cache, and the tick after it would
+  /// otherwise pay for those misses. Costs about one tick (microseconds);
+  /// no allocation.
+  void warm_caches(const deform::DeformableSurface& surface) noexcept;
+
   /// One tick at time t (s) against `surface` (the model generation in use,
   /// published at model_time, s). `inputs` and `results` hold probe_count()
   /// entries (a free slot's input is ignored, its result cleared);
@@ -355,6 +365,11 @@ class LoopCore {
   std::array<ProbeOutput, kMaxProbes> probe_outputs_{};
   std::array<ProbeMemory, kMaxProbes> memory_{};    // gathered memories when slots have holes
   std::array<std::uint8_t, kMaxProbes> slot_of_{};  // dense index -> slot, for haptic_tick
+  // warm_caches: the last tick's probe count and tissue, and its scratch.
+  std::size_t last_dense_ = 0;
+  bool last_tissue_ = false;
+  std::array<ProbeMemory, kMaxProbes> warm_memory_{};
+  std::array<ProbeOutput, kMaxProbes> warm_outputs_{};
   Vec3 range_lo_, range_hi_;   // positions outside are clamped onto this box (no contact possible)
   Vec3 parking_;               // where a probe with no valid position yet is placed (far from the surface)
   double step_fraction_ = 0;   // deformation steps per tick

@@ -144,6 +144,8 @@ class Session {
   /// its request is core().request()), and the deformation half. A replay
   /// passes the recorded `model_time` (s) of the generation the tick used;
   /// NaN: the time of the tick that asked for the current generation.
+  /// deform() ends by bringing the next tick's data back into this thread's
+  /// cache (LoopCore::warm_caches), which changes no result.
   bool tick(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
             double model_time = std::numeric_limits<double>::quiet_NaN());
   void deform(const DeformRequest& request);

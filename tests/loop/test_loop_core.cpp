@@ -7,7 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <string>
+#include <vector>
 #include <memory>
 
 namespace palpa::haptics {
@@ -241,6 +244,75 @@ TEST_F(LoopCoreTest, ConfigurationErrorsNameTheField) {
   EXPECT_EQ(message(c), "loop configuration: deform_rate_hz must be in [1, 10000], got -3");
   EXPECT_THROW(LoopCore(*tree_, *mesh_, config_, std::vector<ProbeSetup>(kMaxProbes + 1, setup())),
                std::invalid_argument);
+}
+
+// warm_caches (what Session::deform runs after a step) re-reads the last
+// tick's data and must change nothing: a core warmed after every
+// deformation step gives the same bits as one never warmed, and its probe
+// memories are the same before and after each warm. Two probes slide across
+// the deforming plane, in and out of contact, across many triangles.
+TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
+  auto cold = make({setup(), setup()});
+  auto warm = make({setup(), setup()});
+  std::vector<deform::Contact> contacts;
+  ContactSet warm_contacts;
+  std::size_t in_contact = 0, out_of_contact = 0, warmed = 0;
+  for (std::uint64_t i = 1; i <= 1200; ++i) {
+    const double t = 1.0 + static_cast<double>(i) * kPeriod;
+    std::array<ProbeTickInput, 2> in{};
+    for (int p = 0; p < 2; ++p) {
+      const double s = static_cast<double>(i) * kPeriod;
+      const double x = -0.015 + 0.025 * s + 0.004 * p, y = 0.006 * std::sin(3.0 * s + p);
+      const double z = -0.0015 + 0.0025 * std::sin(9.0 * s + 2.0 * p);  // leaves the surface now and then
+      in[p].sample.orientation[0] = 1;
+      in[p].sample.position[0] = x;
+      in[p].sample.position[1] = y;
+      in[p].sample.position[2] = z;
+      in[p].sample.status = PALPA_STATUS_VALID;
+      in[p].sample.sequence = i;
+      in[p].sample.time = t;
+      in[p].read_ok = true;
+    }
+    std::array<ProbeTickResult, 2> a{}, b{};
+    cold->tick(i, t, *surface_, 0, in, a, contacts_);
+    warm->tick(i, t, *surface_, 0, in, b, warm_contacts);
+    for (int p = 0; p < 2; ++p) {
+      SCOPED_TRACE("tick " + std::to_string(i) + ", probe " + std::to_string(p));
+      EXPECT_EQ(a[p].force_device, b[p].force_device);
+      EXPECT_EQ(a[p].force_world, b[p].force_world);
+      EXPECT_EQ(a[p].contact_point, b[p].contact_point);
+      EXPECT_EQ(a[p].contact_normal, b[p].contact_normal);
+      EXPECT_EQ(a[p].velocity, b[p].velocity);
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(a[p].depth), std::bit_cast<std::uint64_t>(b[p].depth));
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(a[p].normal_reaction), std::bit_cast<std::uint64_t>(b[p].normal_reaction));
+      EXPECT_EQ(a[p].in_contact, b[p].in_contact);
+      EXPECT_EQ(a[p].path, b[p].path);
+      EXPECT_EQ(a[p].flags, b[p].flags);
+      (a[p].in_contact ? in_contact : out_of_contact) += 1;
+    }
+    if (i % 2 != 0) continue;
+    // A deformation step from the cold core's contacts, then the warm.
+    to_contacts(contacts_, contacts);
+    surface_->set_contacts(contacts);
+    surface_->step(2 * kPeriod);
+    const auto before = warm->state().memory;
+    warm->warm_caches(*surface_);
+    ++warmed;
+    const auto& after = warm->state().memory;
+    for (int p = 0; p < 2; ++p) {
+      EXPECT_EQ(before[p].in_contact, after[p].in_contact);
+      EXPECT_EQ(before[p].corners, after[p].corners);
+      EXPECT_EQ(before[p].cursor.triangle, after[p].cursor.triangle);
+      EXPECT_EQ(before[p].cursor.ahead, after[p].cursor.ahead);
+      EXPECT_EQ(before[p].cursor.tree.leaf, after[p].cursor.tree.leaf);
+      EXPECT_EQ(before[p].cursor.probe, after[p].cursor.probe);
+      EXPECT_EQ(before[p].cursor.barycentric, after[p].cursor.barycentric);
+    }
+  }
+  // The path did what it is for: long runs in contact and out of it.
+  EXPECT_GT(in_contact, 600u);
+  EXPECT_GT(out_of_contact, 300u);
+  EXPECT_EQ(warmed, 600u);
 }
 
 }  // namespace
