@@ -454,7 +454,9 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     deform::DeformableSurface& surface = session.surface();
     std::array<haptics::ProbeTickInput, kMaxProbes> inputs{};
     std::array<haptics::ProbeTickResult, kMaxProbes> results{};
-    std::vector<double> tick_ns, step_ns;
+    // Ticks split by whether a step ran just before them on this thread.
+    std::vector<double> tick_ns, step_ns, tick_after_step_ns, tick_other_ns;
+    bool stepped = false;
     tick_ns.reserve(plan.ticks);
     step_ns.reserve(plan.ticks);
     double active_sum = 0;
@@ -469,8 +471,11 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
                                     std::span<haptics::ProbeTickResult>(results.data(), probes));
       const auto b = Clock::now();
+      const bool after_step = stepped;
+      stepped = due;
       if (k >= plan.warmup) {
         tick_ns.push_back(elapsed_ns(a, b));
+        (after_step ? tick_after_step_ns : tick_other_ns).push_back(elapsed_ns(a, b));
         for (int p = 0; p < probes; ++p) {
           contact_ticks += results[p].in_contact;
           walk_ticks += results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Walk);
@@ -488,6 +493,11 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       }
       if (k % kDirtyEvery == 0) (void)surface.take_dirty_ranges();
     }
+    const bench::Latency after_step = bench::latency_of(tick_after_step_ns);
+    const bench::Latency other = bench::latency_of(tick_other_ns);
+    std::printf("[%s] %d probe%s: ticks right after a step p50 %.3f p99 %.3f us, the others p50 %.3f p99 %.3f us\n",
+                mc.name.c_str(), probes, probes == 1 ? "" : "s", after_step.p50_us, after_step.p99_us, other.p50_us,
+                other.p99_us);
     TickRow tr{mc.name, V, probes, bench::latency_of(tick_ns),
                static_cast<double>(contact_ticks) / (static_cast<double>(plan.ticks) * probes),
                static_cast<double>(walk_ticks) / (static_cast<double>(plan.ticks) * probes)};
@@ -500,6 +510,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["probes"] = probes;
       r["contact_fraction"] = tr.contact_fraction;
       r["walk_fraction"] = tr.walk_fraction;
+      r["after_step"] = latency_json(after_step);
+      r["not_after_step"] = latency_json(other);
       res.records.push_back(r);
     }
 
