@@ -51,6 +51,12 @@ void EllipsoidView::set_transform(const Eigen::Matrix4d& m) {
 
 vtkActor* EllipsoidView::actor() const { return impl_->actor; }
 
+std::array<double, 6> EllipsoidView::bounds() const {
+  const double* b = impl_->actor->GetBounds();
+  if (!b) return {1, -1, 1, -1, 1, -1};
+  return {b[0], b[1], b[2], b[3], b[4], b[5]};
+}
+
 void EllipsoidView::add_to(vtkRenderer* renderer) const { renderer->AddActor(impl_->actor); }
 void EllipsoidView::remove_from(vtkRenderer* renderer) const { renderer->RemoveActor(impl_->actor); }
 

@@ -6,6 +6,7 @@
 
 #include "core/types.h"
 
+#include <array>
 #include <memory>
 
 class vtkActor;
@@ -26,6 +27,8 @@ class EllipsoidView {
   /// Organ frame -> world, row-major 4x4 (breathing); identity by default.
   void set_transform(const Eigen::Matrix4d& organ_to_world);
   vtkActor* actor() const;
+  /// World bounds of the ellipsoid as drawn, {xmin, xmax, ...}, m.
+  std::array<double, 6> bounds() const;
   void add_to(vtkRenderer* renderer) const;
   void remove_from(vtkRenderer* renderer) const;
 

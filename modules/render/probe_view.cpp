@@ -12,6 +12,8 @@
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
 #include <vtkRenderer.h>
+
+#include <algorithm>
 #include <vtkSmartPointer.h>
 #include <vtkSphereSource.h>
 
@@ -105,11 +107,11 @@ Vec3 ProbeView::colour() const {
   return {c[0], c[1], c[2]};
 }
 
-void ProbeView::set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, bool in_contact, bool selected) {
+bool ProbeView::set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, bool in_contact, bool selected) {
   Impl& m = *impl_;
   if (m.has_state && m.tip_at == tip && m.axis == axis && m.force == force && m.in_contact == in_contact &&
       m.selected == selected && m.scale_at == m.force_scale)
-    return;
+    return false;
   m.has_state = true;
   m.tip_at = tip;
   m.axis = axis;
@@ -140,6 +142,22 @@ void ProbeView::set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, 
   } else {
     m.arrow->VisibilityOff();
   }
+  return true;
+}
+
+std::array<double, 6> ProbeView::bounds() const {
+  std::array<double, 6> b{1, -1, 1, -1, 1, -1};
+  for (vtkActor* a : {impl_->tip.Get(), impl_->shaft.Get(), impl_->arrow.Get()}) {
+    if (!a->GetVisibility()) continue;
+    const double* ab = a->GetBounds();
+    if (!ab || ab[0] > ab[1]) continue;
+    const bool first = b[0] > b[1];
+    for (int k = 0; k < 3; ++k) {
+      b[2 * k] = first ? ab[2 * k] : std::min(b[2 * k], ab[2 * k]);
+      b[2 * k + 1] = first ? ab[2 * k + 1] : std::max(b[2 * k + 1], ab[2 * k + 1]);
+    }
+  }
+  return b;
 }
 
 void ProbeView::set_visible(bool visible) {

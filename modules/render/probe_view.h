@@ -4,6 +4,7 @@
 
 #include "core/types.h"
 
+#include <array>
 #include <memory>
 
 class vtkRenderer;
@@ -23,8 +24,8 @@ class ProbeView {
   /// force_scale m per N, at most 3 shaft lengths). Colours say whether the
   /// probe touches the surface and whether it is the selected one. The same
   /// state again changes nothing (no VTK object is modified, so an idle
-  /// window need not draw).
-  void set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, bool in_contact, bool selected);
+  /// window need not draw). Answers whether anything changed.
+  bool set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, bool in_contact, bool selected);
   /// The probe's own colour (its shaft), e.g. the colour of its trace in the
   /// force plot; RGB in [0, 1]. Default a light grey.
   void set_colour(const Vec3& rgb);
@@ -32,6 +33,9 @@ class ProbeView {
   /// Arrow length per newton, m/N.
   void set_force_scale(double metres_per_newton);
   void set_visible(bool visible);
+  /// World bounds of what is drawn now (tip, shaft and arrow, those visible),
+  /// {xmin, xmax, ymin, ymax, zmin, zmax} in m; empty (min > max) when none is.
+  std::array<double, 6> bounds() const;
 
   void add_to(vtkRenderer* renderer);
   void remove_from(vtkRenderer* renderer);

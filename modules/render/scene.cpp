@@ -4,9 +4,11 @@
 
 #include <vtkActor.h>
 #include <vtkCamera.h>
+#include <vtkMatrix4x4.h>
 #include <vtkObjectFactory.h>
 #include <vtkOpenGLRenderer.h>
 #include <vtkRenderWindow.h>
+#include <vtkRect.h>
 #include <vtkRenderer.h>
 #include <vtkSmartPointer.h>
 
@@ -71,7 +73,45 @@ vtkStandardNewMacro(BlendingRenderer);
 struct OffscreenScene::Impl {
   OffscreenWindow window;
   vtkSmartPointer<BlendingRenderer> renderer = vtkSmartPointer<BlendingRenderer>::New();
+  bool held = false;            // hold_clipping_range() was called
+  std::array<double, 6> box{};  // the held range's box, m
   Impl(int w, int h, GlBackend b) : window(w, h, b) {}
+
+  // Sets the clipping range for this render; true when a held box had to grow.
+  bool update_clipping() {
+    if (!held) {
+      renderer->ResetCameraClippingRange();
+      return false;
+    }
+    const bool grew = grow_box();
+    renderer->ResetCameraClippingRange(box.data());
+    return grew;
+  }
+  bool grow_box() {
+    double b[6];
+    renderer->ComputeVisiblePropBounds(b);
+    bool grew = false;
+    if (b[0] <= b[1] && b[2] <= b[3] && b[4] <= b[5]) {
+      for (int k = 0; k < 3; ++k)
+        if (b[2 * k] < box[2 * k] || b[2 * k + 1] > box[2 * k + 1]) grew = true;
+      if (grew) {
+        for (int k = 0; k < 3; ++k) {
+          box[2 * k] = std::min(box[2 * k], b[2 * k]);
+          box[2 * k + 1] = std::max(box[2 * k + 1], b[2 * k + 1]);
+        }
+        pad_box();
+      }
+    }
+    return grew;
+  }
+  void pad_box() {
+    const double d = 0.1 * std::sqrt((box[1] - box[0]) * (box[1] - box[0]) + (box[3] - box[2]) * (box[3] - box[2]) +
+                                     (box[5] - box[4]) * (box[5] - box[4]));
+    for (int k = 0; k < 3; ++k) {
+      box[2 * k] -= d;
+      box[2 * k + 1] += d;
+    }
+  }
 };
 
 OffscreenScene::OffscreenScene(int width, int height, GlBackend backend)
@@ -94,12 +134,51 @@ void OffscreenScene::look_at(const std::array<double, 6>& bounds, const Vec3& vi
 }
 
 void OffscreenScene::render() {
-  impl_->renderer->ResetCameraClippingRange();
+  impl_->update_clipping();
   impl_->window.render();
 }
 
+bool OffscreenScene::render(const PixelRect& region) {
+  Impl& m = *impl_;
+  if (m.update_clipping()) {
+    m.window.render();
+    return false;
+  }
+  const PixelRect r{std::max(region.x0, 0), std::max(region.y0, 0), std::min(region.x1, m.window.width()),
+                    std::min(region.y1, m.window.height())};
+  if (r.empty()) return true;
+  // VTK's camera sets this scissor for its next render only (and clears
+  // within it): every pass of the frame then draws inside it.
+  vtkCamera* cam = m.renderer->GetActiveCamera();
+  cam->SetScissorRect(vtkRecti(r.x0, r.y0, r.x1 - r.x0, r.y1 - r.y0));
+  cam->SetUseScissor(true);
+  m.window.render();
+  cam->SetUseScissor(false);
+  return true;
+}
+
+void OffscreenScene::hold_clipping_range(const std::array<double, 6>& box) {
+  impl_->held = true;
+  impl_->box = box;
+}
+
+bool OffscreenScene::take_in_visible_props() { return impl_->held && impl_->grow_box(); }
+
+std::array<double, 6> OffscreenScene::clipping_box() const { return impl_->box; }
+
+PixelProjection OffscreenScene::projection() const {
+  Impl& m = *impl_;
+  const int w = m.window.width(), h = m.window.height();
+  vtkMatrix4x4* c = m.renderer->GetActiveCamera()->GetCompositeProjectionTransformMatrix(
+      static_cast<double>(w) / std::max(h, 1), -1, 1);
+  Eigen::Matrix4d mat;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) mat(i, j) = c->GetElement(i, j);
+  return PixelProjection(mat, w, h);
+}
+
 Image OffscreenScene::render_image() {
-  impl_->renderer->ResetCameraClippingRange();
+  impl_->update_clipping();
   impl_->window.render();
   return impl_->window.capture();
 }

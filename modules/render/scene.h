@@ -5,6 +5,7 @@
 
 #include "core/types.h"
 #include "render/offscreen.h"
+#include "render/pixel_region.h"
 
 #include <array>
 #include <memory>
@@ -47,6 +48,27 @@ class OffscreenScene {
   /// Renders the frame (clipping range reset first, as render_image()) without
   /// reading it back: window().finish() and window().read_rgba() follow.
   void render();
+  /// Renders only the pixels in `region`: they are cleared and drawn as in a
+  /// whole frame, and the rest keep what the last render left. With a held
+  /// clipping range (below) the pixels drawn are those of a whole frame, bit
+  /// for bit; without one the range follows the props and may differ. An
+  /// empty region draws nothing. Answers false, having drawn the whole frame,
+  /// when the held range had to grow (its depth mapping changed everywhere).
+  bool render(const PixelRect& region);
+  /// Holds the camera's clipping range for `box` ({xmin, xmax, ...}, m)
+  /// instead of resetting it from the visible props at every render: a
+  /// frame's pixels then do not depend on where moving props are. At a
+  /// render whose visible props leave the box, it grows to take them in
+  /// (with a tenth of its diagonal to spare).
+  void hold_clipping_range(const std::array<double, 6>& box);
+  /// Grows the held box to take in every visible prop now; true when it grew
+  /// (the next render then draws every pixel: call it before choosing what
+  /// to draw). False when no range is held.
+  bool take_in_visible_props();
+  /// The held range's box now (m); meaningful after hold_clipping_range().
+  std::array<double, 6> clipping_box() const;
+  /// The camera's world -> pixel mapping now (after look_at()).
+  PixelProjection projection() const;
 
  private:
   struct Impl;

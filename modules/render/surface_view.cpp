@@ -24,6 +24,7 @@ VTK_MODULE_INIT(vtkRenderingOpenGL2);
 #include <vtkObjectFactory.h>
 #include <vtkOpenGLBufferObject.h>
 #include <vtkOpenGLHelper.h>
+#include <vtkOpenGLIndexBufferObject.h>
 #include <vtkOpenGLPolyDataMapper.h>
 #include <vtkOpenGLRenderWindow.h>
 #include <vtkOpenGLVertexBufferObject.h>
@@ -73,6 +74,11 @@ struct DeformData {
 
   // Picking: axis-aligned boxes of kPickChunk consecutive undeformed triangles.
   std::vector<std::array<double, 6>> chunk_box;
+
+  // Drawing only some triangles (draw_only_near): the chunks of kPickChunk
+  // triangles to draw, ascending; every triangle when `limited` is false.
+  bool limited = false;
+  std::vector<std::uint32_t> drawn_chunks;
 
   // The VBO transform VTK used at the last draw: P_vbo = (P - shift) * scale.
   Vec3 vbo_shift = Vec3::Zero();
@@ -233,6 +239,45 @@ class DeformMapper : public vtkOpenGLPolyDataMapper {
     Superclass::RenderPieceStart(ren, act);
   }
 
+  // Drawing some triangles only: VTK draws the triangles' index buffer as a
+  // whole, so the buffer is given the chosen chunks' indices (taken from
+  // VTK's own list, read back once after each build: the same triangles, in
+  // the same order) and its full list again when everything is drawn.
+  void RenderPieceDraw(vtkRenderer* ren, vtkActor* act) override {
+    vtkOpenGLIndexBufferObject* ibo = this->Primitives[PrimitiveTris].IBO;
+    const std::size_t triangles = data ? data->mesh->triangle_count() : 0;
+    if (ibo && this->VBOBuildTime.GetMTime() != built_at_) {
+      // VTK (re)built its buffers: the index buffer holds its full list.
+      built_at_ = this->VBOBuildTime.GetMTime();
+      subset_ = false;
+      full_.clear();
+      if (ibo->IndexCount == 3 * triangles && !this->HaveCellScalars && !this->HaveCellNormals) {
+        full_.resize(ibo->IndexCount);
+        ibo->Bind();
+        glGetBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(full_.size() * sizeof(unsigned)),
+                           full_.data());
+        ibo->Release();
+      }
+    }
+    const bool limit = data && data->limited && !full_.empty();
+    if (limit) {
+      part_.clear();
+      for (const std::uint32_t c : data->drawn_chunks) {
+        const std::size_t b = 3 * std::size_t{c} * kPickChunk, e = std::min(full_.size(), b + 3 * kPickChunk);
+        part_.insert(part_.end(), full_.begin() + static_cast<std::ptrdiff_t>(b),
+                     full_.begin() + static_cast<std::ptrdiff_t>(e));
+      }
+      if (!part_.empty()) ibo->Upload(part_, vtkOpenGLBufferObject::ElementArrayBuffer);
+      ibo->IndexCount = part_.size();
+      subset_ = true;
+    } else if (subset_) {
+      ibo->Upload(full_, vtkOpenGLBufferObject::ElementArrayBuffer);
+      ibo->IndexCount = full_.size();
+      subset_ = false;
+    }
+    Superclass::RenderPieceDraw(ren, act);
+  }
+
   void RenderPieceFinish(vtkRenderer* ren, vtkActor* act) override {
     if (textures_active_) {
       stream_texture_->Deactivate();
@@ -312,6 +357,10 @@ class DeformMapper : public vtkOpenGLPolyDataMapper {
   vtkSmartPointer<vtkOpenGLBufferObject> rest_buffer_, stream_buffer_;
   vtkSmartPointer<vtkTextureObject> rest_texture_, stream_texture_;
   bool textures_active_ = false;
+  vtkMTimeType built_at_ = 0;        // VBOBuildTime when full_ was read
+  std::vector<unsigned> full_;       // VTK's triangle indices (empty: not ours to limit)
+  std::vector<unsigned> part_;       // the chosen chunks' indices
+  bool subset_ = false;              // the index buffer holds part_
   std::uint64_t bounds_version_ = ~std::uint64_t{0};
   vtkMTimeType bounds_time_ = 0;
   double displaced_bounds_[6] = {0, 0, 0, 0, 0, 0};
@@ -473,6 +522,36 @@ void SurfaceView::set_transform(const Eigen::Matrix4d& m) {
   impl_->actor->SetUserMatrix(vm);
 }
 const UploadStats& SurfaceView::stats() const { return impl_->data.stats; }
+
+void SurfaceView::draw_only_near(const PixelProjection& projection, const PixelRect& region) {
+  DeformData& d = impl_->data;
+  d.limited = true;
+  d.drawn_chunks.clear();
+  if (region.empty()) return;
+  // A displaced vertex lies within max |h| of its undeformed place (N0 unit).
+  const double grow = d.max_displacement() * 1.001 + 1e-9;
+  vtkMatrix4x4* m = impl_->actor->GetMatrix();
+  Eigen::Matrix4d to_world;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) to_world(r, c) = m->GetElement(r, c);
+  for (std::size_t c = 0; c < d.chunk_box.size(); ++c) {
+    const auto& b = d.chunk_box[c];
+    PixelProjection::Cover cover(projection);
+    for (int k = 0; k < 8; ++k) {
+      const Vec3 corner((k & 1) ? b[1] + grow : b[0] - grow, (k & 2) ? b[3] + grow : b[2] - grow,
+                        (k & 4) ? b[5] + grow : b[4] - grow);
+      cover.add(Vec3(to_world.topLeftCorner<3, 3>() * corner + to_world.topRightCorner<3, 1>()));
+    }
+    const PixelRect r = cover.rect(2);
+    if (r.x0 < region.x1 && region.x0 < r.x1 && r.y0 < region.y1 && region.y0 < r.y1)
+      d.drawn_chunks.push_back(static_cast<std::uint32_t>(c));
+  }
+}
+
+void SurfaceView::draw_all() {
+  impl_->data.limited = false;
+  impl_->data.drawn_chunks.clear();
+}
 
 void SurfaceView::set_color(double r, double g, double b) { impl_->actor->GetProperty()->SetColor(r, g, b); }
 

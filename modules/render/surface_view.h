@@ -10,6 +10,7 @@
 
 #include "core/types.h"
 #include "mesh/surface_mesh.h"
+#include "render/pixel_region.h"
 
 #include <array>
 #include <cstdint>
@@ -107,6 +108,16 @@ class SurfaceView {
   /// rasterisation work; a surface with holes would show its inside
   /// differently.
   void set_backface_culling(bool on);
+  /// From the next render on, draws only the triangles that may cover a
+  /// pixel of `region` in a frame projected by `projection` (taking in the
+  /// actor's transform and the largest displacement now), in blocks of 64
+  /// consecutive triangles kept in their order. A render that draws only
+  /// `region` (OffscreenScene::render(region)) gives the same pixels as with
+  /// every triangle; the software renderer is spared the others' vertices.
+  /// Call it again after the stream or the transform changed.
+  void draw_only_near(const PixelProjection& projection, const PixelRect& region);
+  /// Draws every triangle again (the default).
+  void draw_all();
   /// Organ frame -> world (a breathing organ's motion), 4x4 affine, applied
   /// as the actor's user matrix after eq. (2); identity by default. Picks
   /// and bounds stay in the organ frame.

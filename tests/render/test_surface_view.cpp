@@ -376,6 +376,75 @@ TEST(SurfaceView, DentSurvivesBufferRebuildsAndALostContext) {
   EXPECT_EQ(view.stats().full_uploads, 2u);
 }
 
+// Redrawing only the pixels a dent can touch (OffscreenScene::render with a
+// region, SurfaceView::draw_only_near) gives the frame drawn whole, bit for
+// bit; the region is worked out here from VTK's own world -> display
+// conversion, not from the code under test. Drawing every triangle again
+// afterwards gives the whole frame too (VTK's full index list is back).
+TEST(SurfaceView, RedrawingOnlyWhatADentTouchesGivesTheWholeFrame) {
+  DentScene dent(0.005);
+  const Vec3 eye_dir(0.3, -0.5, 1.0);
+  OffscreenScene whole_scene(kSize, kSize), part_scene(kSize, kSize);
+  SurfaceView whole_view(dent.mesh), part_view(dent.mesh);
+  std::array<double, 6> box{};
+  for (auto [scene, view] : {std::pair{&whole_scene, &whole_view}, std::pair{&part_scene, &part_view}}) {
+    view->update_all(dent.surface->stream());
+    scene->add(view->actor());
+    scene->look_at(view->bounds(), eye_dir, Vec3::UnitZ());
+    box = view->bounds();
+    for (int k = 0; k < 3; ++k) box[2 * k] -= 0.02, box[2 * k + 1] += 0.02;
+    scene->hold_clipping_range(box);
+  }
+  const Image before = whole_scene.render_image();
+  EXPECT_EQ(test::max_difference(part_scene.render_image(), before), 0);
+
+  // Where VTK puts world points agrees with the projection the region uses.
+  const PixelProjection proj = part_scene.projection();
+  for (Index i = 0; i < dent.mesh->vertex_count(); i += 997) {
+    double x = 0, y = 0;
+    ASSERT_TRUE(proj.project(dent.mesh->positions[i], x, y));
+    const auto px = test::to_pixel(part_scene.renderer(), dent.mesh->positions[i], kSize);
+    EXPECT_NEAR(x, px.x(), 1e-6) << "vertex " << i;
+    EXPECT_NEAR(y, kSize - px.y(), 1e-6) << "vertex " << i;
+  }
+
+  dent.settle();
+  const std::vector<Vec3> after = core_positions(*dent.surface);
+  // The region: every triangle with a displaced corner, before and after.
+  double x0 = 1e30, x1 = -1e30, y0 = 1e30, y1 = -1e30;
+  const auto st = dent.surface->stream();
+  for (const auto& t : dent.mesh->triangles) {
+    bool moved = false;
+    for (Index v : t)
+      for (int k = 0; k < 4; ++k) moved = moved || st[4 * v + k] != 0.f;
+    if (!moved) continue;
+    for (Index v : t)
+      for (const Vec3& p : {dent.mesh->positions[v], after[v]}) {
+        const auto px = test::to_pixel(part_scene.renderer(), p, kSize);
+        x0 = std::min(x0, px.x()), x1 = std::max(x1, px.x());
+        y0 = std::min(y0, kSize - px.y()), y1 = std::max(y1, kSize - px.y());
+      }
+  }
+  const PixelRect region{static_cast<int>(std::floor(x0)) - 2, static_cast<int>(std::floor(y0)) - 2,
+                         static_cast<int>(std::floor(x1)) + 3, static_cast<int>(std::floor(y1)) + 3};
+  ASSERT_FALSE(region.empty());
+  ASSERT_LT((region.x1 - region.x0) * (region.y1 - region.y0), kSize * kSize / 4) << "the test needs a small region";
+
+  whole_view.update_all(dent.surface->stream());
+  part_view.update_all(dent.surface->stream());
+  const Image whole = whole_scene.render_image();
+  EXPECT_GT(test::compare(before, whole, std::vector<std::uint8_t>(kSize * kSize, 1)).changed_inside, 300)
+      << "the dent is not visible";
+  part_view.draw_only_near(proj, region);
+  EXPECT_TRUE(part_scene.render(region));
+  part_scene.window().finish();
+  EXPECT_EQ(test::max_difference(part_scene.window().capture(), whole), 0) << "the partly redrawn frame differs";
+
+  // Every triangle again: the whole frame once more.
+  part_view.draw_all();
+  EXPECT_EQ(test::max_difference(part_scene.render_image(), whole), 0) << "the full index list did not come back";
+}
+
 TEST(SurfaceView, UpdateRejectsRangesOutsideTheMesh) {
   auto mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_sphere(500, 0.05));
   SurfaceView view(mesh);
