@@ -65,6 +65,8 @@ const char* kUsage =
     "                      in one scene; the frames are the same\n"
     "  --cull on|off       skip the organ's back faces when it is closed and oriented outward (default\n"
     "                      on; the same picture, less rasterising)\n"
+    "  --damage on|off     redraw only the pixels that changed since a scene's last frame (default\n"
+    "                      on; the same frames, less rasterising; with --translucency blend only)\n"
     "  --translucency blend|oit  translucent props (probe shafts, lesions, marks) by plain alpha\n"
     "                      blending (default) or VTK's order-independent translucency (slower)\n"
     "  --timings           print where the time went, per stage and per frame\n";
@@ -79,6 +81,7 @@ struct Options {
   render::GlBackend gl = render::GlBackend::Auto;
   bool pipeline = true;
   bool cull = true;
+  bool damage = true;
   bool timings = false;
   bool plain_blending = true;
 };
@@ -141,10 +144,10 @@ Options parse(int argc, char** argv) {
       o.reveal = true;
     } else if (a == "--gl") {
       o.gl = render::parse_gl_backend(value());
-    } else if (a == "--pipeline" || a == "--cull") {
+    } else if (a == "--pipeline" || a == "--cull" || a == "--damage") {
       const std::string v = value();
       if (v != "on" && v != "off") throw Usage(a + ": expected on or off, got '" + v + "'");
-      (a == "--pipeline" ? o.pipeline : o.cull) = v == "on";
+      (a == "--pipeline" ? o.pipeline : a == "--cull" ? o.cull : o.damage) = v == "on";
     } else if (a == "--translucency") {
       const std::string v = value();
       if (v != "blend" && v != "oit") throw Usage("--translucency: expected blend or oit, got '" + v + "'");
@@ -259,7 +262,10 @@ struct FrameBuffer {
 
 // What the rendering stage draws with: an offscreen window (its own OpenGL
 // context) and every prop in it. Each scene takes every packet's stream
-// changes, so it is current whenever it draws.
+// changes, so it is current whenever it draws. Its framebuffer keeps the
+// last frame it drew; `pending` gathers the pixels that changed since then
+// (the stream's changes of every packet, its own props' moves), which is all
+// it redraws with --damage on.
 struct SceneSet {
   SceneSet(int width, int height, render::GlBackend gl, const std::shared_ptr<const mesh::SurfaceMesh>& mesh)
       : scene(width, height, gl), view(mesh) {}
@@ -268,6 +274,8 @@ struct SceneSet {
   std::vector<std::unique_ptr<render::EllipsoidView>> lesion_views, mark_views;
   std::vector<bool> mark_shown;
   std::vector<std::unique_ptr<render::ProbeView>> probes;
+  render::PixelRect pending;
+  bool whole = true;  // redraw every pixel next time (the first frame, the organ moved, the clipping range grew)
 };
 
 int run(const Options& o) {
@@ -341,6 +349,7 @@ int run(const Options& o) {
   // (on this thread) overlaps the previous frame's rasterisation (on the
   // software renderer's threads); one stage after the other: one scene.
   std::vector<std::unique_ptr<SceneSet>> scenes;
+  std::array<double, 6> held_box{};
   for (int k = 0; k < (o.pipeline ? 2 : 1); ++k) {
     auto set = std::make_unique<SceneSet>(o.width, o.height, o.gl, mesh);
     set->scene.set_plain_blending(o.plain_blending);
@@ -364,8 +373,26 @@ int run(const Options& o) {
       set->probes.push_back(std::move(pv));
     }
     set->scene.look_at(set->view.bounds(), view_dir, Vec3::UnitZ());
+    // A clipping range that does not follow the probes: a frame's pixels
+    // then depend only on what is drawn, so a scene can redraw only what
+    // changed. The organ with room for the probes' shafts and arrows; a prop
+    // that leaves it grows it (and every scene redraws in full).
+    std::array<double, 6> box = set->view.bounds();
+    for (int k = 0; k < 3; ++k) {
+      box[2 * k] -= 0.25 * size;
+      box[2 * k + 1] += 0.25 * size;
+    }
+    set->scene.hold_clipping_range(box);
+    held_box = box;
     scenes.push_back(std::move(set));
   }
+  // Redrawing only what changed keeps every pass inside a scissor, which
+  // VTK's order-independent translucency (full-frame passes) is not made for.
+  const bool damage = o.damage && o.plain_blending;
+  const render::PixelProjection projection = scenes[0]->scene.projection();
+  const render::PixelRect whole_frame{0, 0, o.width, o.height};
+  const int damage_margin = 2;  // pixels around the projected corners (float rounding on the GPU)
+  Eigen::Matrix4d taken_transform = Eigen::Matrix4d::Identity();
   std::printf("rendering %dx%d at %.0f fps with %s (%s)%s\n", o.width, o.height, o.fps,
               std::string(render::gl_backend_name(scenes[0]->scene.window().backend())).c_str(),
               scenes[0]->scene.window().gl_renderer().c_str(),
@@ -468,19 +495,50 @@ int run(const Options& o) {
   // Stage 2 (rendering, this thread): take the packet's stream changes (every
   // scene), draw it in one scene (submitted: a software renderer rasterises
   // on its own threads after this returns), and later read that scene back.
+  //
+  // The pixels the stream's changes touch: a triangle's pixels lie within
+  // its corners' projections, and a changed vertex (its h, its normal
+  // correction) changes only the triangles around it; so the changed
+  // vertices where they were and where they are, and their neighbours.
+  const mesh::SurfaceMesh& organ = *mesh;
+  auto drawn_at = [&](std::size_t v, const Eigen::Matrix4d& to_world) {
+    const Vec3 q = organ.positions[v] + static_cast<double>(mirror[4 * v + 3]) * organ.normals[v];
+    return Vec3(to_world.topLeftCorner<3, 3>() * q + to_world.topRightCorner<3, 1>());
+  };
   auto take = [&](const Packet& p) {
     Timer tm(upload_stage);
+    const bool moved = p.organ_to_world != taken_transform;
+    taken_transform = p.organ_to_world;
+    render::PixelProjection::Cover cover(projection);
+    if (damage && !moved)
+      for (const IndexRange& r : p.dirty)
+        for (Index v = r.begin; v < r.end; ++v) cover.add(drawn_at(v, p.organ_to_world));
     std::size_t k = 0;
     for (const IndexRange& r : p.dirty) {
       const std::size_t len = 4 * std::size_t{r.end - r.begin};
       std::memcpy(&mirror[4 * std::size_t{r.begin}], &p.values[k], len * sizeof(float));
       k += len;
     }
-    for (auto& set : scenes) set->view.update(mirror, p.dirty);
+    if (damage && !moved)
+      for (const IndexRange& r : p.dirty)
+        for (Index v = r.begin; v < r.end; ++v) {
+          cover.add(drawn_at(v, p.organ_to_world));
+          for (const Index u : organ.vertex_neighbors.row(v)) cover.add(drawn_at(u, p.organ_to_world));
+        }
+    const render::PixelRect changed = cover.rect(damage_margin);
+    for (auto& set : scenes) {
+      set->view.update(mirror, p.dirty);
+      if (moved || cover.whole())
+        set->whole = true;
+      else
+        set->pending.unite(changed);
+    }
   };
   auto submit = [&](const Packet& p, SceneSet& set) {
     {
       Timer tm(upload_stage);
+      // The props that change add where they were and where they are.
+      render::PixelProjection::Cover cover(projection);
       set.view.set_transform(p.organ_to_world);
       for (auto& lv : set.lesion_views) lv->set_transform(p.organ_to_world);
       for (std::size_t m = 0; m < set.mark_views.size(); ++m) {
@@ -489,17 +547,45 @@ int run(const Options& o) {
           set.mark_views[m]->set_transform(p.organ_to_world);
           set.mark_views[m]->add_to(set.scene.renderer());
           set.mark_shown[m] = true;
+          cover.add_box(set.mark_views[m]->bounds());
         } else if (!standing && set.mark_shown[m]) {
+          cover.add_box(set.mark_views[m]->bounds());
           set.mark_views[m]->remove_from(set.scene.renderer());
           set.mark_shown[m] = false;
         }
       }
-      for (std::size_t j = 0; j < p.probes.size() && j < set.probes.size(); ++j)
-        set.probes[j]->set_state(p.probes[j].world, p.probes[j].axis, p.probes[j].force, p.probes[j].in_contact,
-                                 j == 0);
+      for (std::size_t j = 0; j < p.probes.size() && j < set.probes.size(); ++j) {
+        const std::array<double, 6> before = set.probes[j]->bounds();
+        if (set.probes[j]->set_state(p.probes[j].world, p.probes[j].axis, p.probes[j].force, p.probes[j].in_contact,
+                                     j == 0)) {
+          cover.add_box(before);
+          cover.add_box(set.probes[j]->bounds());
+        }
+      }
+      if (cover.whole())
+        set.whole = true;
+      else
+        set.pending.unite(cover.rect(damage_margin));
     }
     Timer tm(render_stage);
-    set.scene.render();
+    if (set.scene.take_in_visible_props()) {
+      // The clipping range grew (a prop left its box): every scene takes the
+      // new one and redraws in full, as one scene drawing every frame would.
+      set.whole = true;
+      for (auto& other : scenes)
+        if (other.get() != &set) {
+          other->scene.hold_clipping_range(set.scene.clipping_box());
+          other->whole = true;
+        }
+    }
+    const bool whole = set.whole || !damage;
+    if (whole)
+      set.view.draw_all();
+    else
+      set.view.draw_only_near(projection, set.pending);
+    set.scene.render(whole ? whole_frame : set.pending);
+    set.pending = {};
+    set.whole = false;
     set.scene.window().flush();
   };
   auto read = [&](SceneSet& set, Packet& p, FrameBuffer& b) {
@@ -660,6 +746,10 @@ int run(const Options& o) {
         Timer tm(warm_stage);
         set->scene.render();
         set->scene.window().finish();
+        // The probes had no pose yet: the range they grew is not the one the
+        // frames are drawn with (one stage at a time there is no such draw).
+        set->scene.hold_clipping_range(held_box);
+        set->whole = true;
       }
       // Frame n is drawn in scene n % 2 and read back after frame n + 1 was
       // submitted in the other scene.

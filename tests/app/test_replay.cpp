@@ -180,6 +180,44 @@ TEST_F(ReplayCli, PipelinedFramesAreTheSequentialFrames) {
   EXPECT_EQ(frames, 11u);
 }
 
+// Redrawing only the pixels that changed since a scene's last frame (the
+// default) against drawing every frame whole: the same frames, byte for
+// byte, in both scenes of the pipeline and one stage at a time. The frames
+// change from one to the next (probes move, the organ dents), so a region
+// that misses a change shows as a stale pixel.
+TEST_F(ReplayCli, RedrawingOnlyWhatChangedGivesTheWholeFrames) {
+  const fs::path part = dir_ / "damage_on", whole = dir_ / "damage_off", seq = dir_ / "damage_seq";
+  // No overlays: every pixel is the 3D scene's.
+  const std::string common = " --size 320x240 --fps 30 --from 0.1 --to 0.9 --overlays none";
+  const Result a = run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + part.string() + common);
+  const Result b = run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + whole.string() + common +
+                       " --damage off");
+  const Result c = run(std::string(PALPA_REPLAY) + " " + session_ + " --frames " + seq.string() + common +
+                       " --pipeline off");
+  ASSERT_EQ(a.rc, 0) << a.out << a.err;
+  ASSERT_EQ(b.rc, 0) << b.out << b.err;
+  ASSERT_EQ(c.rc, 0) << c.out << c.err;
+  std::size_t frames = 0, changed = 0;
+  cv::Mat last;
+  for (std::size_t i = 1;; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06zu.png", i);
+    const cv::Mat x = cv::imread((part / name).string(), cv::IMREAD_UNCHANGED);
+    if (x.empty()) break;
+    const cv::Mat y = cv::imread((whole / name).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat z = cv::imread((seq / name).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(y.empty()) << name;
+    ASSERT_FALSE(z.empty()) << name;
+    EXPECT_EQ(cv::norm(x, y, cv::NORM_INF), 0) << name << ": partly redrawn (two scenes) vs whole";
+    EXPECT_EQ(cv::norm(z, y, cv::NORM_INF), 0) << name << ": partly redrawn (one scene) vs whole";
+    if (!last.empty() && cv::norm(x, last, cv::NORM_INF) > 0) ++changed;
+    last = x;
+    ++frames;
+  }
+  EXPECT_EQ(frames, 25u);
+  EXPECT_GE(changed, 20u) << "the frames hardly change: the test would not see a stale pixel";
+}
+
 // Culling the closed organ's back faces and blending the translucent shafts
 // plainly (the defaults) against VTK's full path (--cull off --translucency
 // oit): the organ, background and overlays are the same pixels; only the
