@@ -4,6 +4,8 @@
 #include "haptics/cpu_plan.h"
 
 #include <algorithm>
+#include <cstdlib>
+#include <string_view>
 #include <chrono>
 #include <fstream>
 #include <sstream>
@@ -58,6 +60,9 @@ haptics::LoopConfig Workbench::loop_config(const MaterialSettings& m) const {
   c.core.shape = deform::ShapeFunction{m.shape, m.radius};
   c.record_capacity = kRecordCapacity;  // so that a recording can start while the loop runs
   c.haptic_cpu = haptics::reserved_haptic_cpu();  // the CPU main() kept for it (-1: none)
+  // PALPA_REALTIME=off: the haptic thread does not ask for SCHED_FIFO (the
+  // loop then warns that it runs without real-time priority).
+  if (const char* rt = std::getenv("PALPA_REALTIME"); rt && std::string_view(rt) == "off") c.realtime = false;
   return c;
 }
 
@@ -220,6 +225,7 @@ void Workbench::start_recording(const std::filesystem::path& file, const std::st
   r->attach(*loop_);
   recorder_ = std::move(r);
   record_start_time_ = loop_time_;
+  recorded_warnings_ = 0;  // warnings on now are events of this session too
 }
 
 std::filesystem::path Workbench::stop_recording() {
@@ -585,6 +591,19 @@ void Workbench::update() {
     time_ = v.time - epoch_;
     loop_time_ = v.time;
     loop_tick_ = v.tick;
+  }
+  // A loop warning that comes on while recording is an event of the session
+  // (value: the LoopWarning bits that came on; text: what they say).
+  if (recorder_ && v.tick > 0) {
+    const std::uint32_t risen = v.warnings & ~recorded_warnings_;
+    if (risen != 0) {
+      std::string text;
+      for (const std::string& w : haptics::describe_warnings(risen)) text += (text.empty() ? "" : "; ") + w;
+      record::EventRecord e = record::EventRecord::make(record::EventKind::Warning, v.tick, v.time, text);
+      e.value = static_cast<double>(risen);
+      recorder_->push_event(e);
+    }
+    recorded_warnings_ = v.warnings;
   }
   // A breathing organ moves: every placed mouse probe's tip follows it.
   if (field() && field()->breathing.enabled)

@@ -325,6 +325,7 @@ class Workbench {
 
   std::unique_ptr<record::Recorder> recorder_;  // null: not recording
   double record_start_time_ = 0;                // s, loop clock when the recording started
+  std::uint32_t recorded_warnings_ = 0;         // LoopWarning bits on at the last update while recording
   double record_pause_s_ = 0;                   // s, wall time the loop stopped for the snapshot
   bool suspended_ = false;
   std::thread discard_thread_;

@@ -571,6 +571,40 @@ TEST(WorkbenchScenario, ARecordingGoesOnThroughAnEditAndReplaysIt) {
   EXPECT_GT(replayed, 1.8 * replayed_before) << "the lesion is felt in the replay";
 }
 
+// A loop warning that comes on while recording is written as an event of the
+// session: here the haptic thread was told not to ask for real-time
+// priority (PALPA_REALTIME=off), so the loop warns of it from its start.
+TEST(WorkbenchScenario, ARecordingKeepsTheLoopsWarningsAsEvents) {
+  const auto dir = palpa::test::temp_dir("workbench_warning_events");
+  const auto file = dir / "warned.palpa";
+  std::filesystem::remove(file);
+  setenv("PALPA_REALTIME", "off", 1);
+  struct Unset {
+    ~Unset() { unsetenv("PALPA_REALTIME"); }
+  } unset;
+  Workbench wb;
+  wb.add_probe();
+  wb.open_scenario(shipped("breast_two_nodules.json"));
+  ASSERT_TRUE(wait_for(wb, [&] { return (wb.view().warnings & haptics::kWarnNoRealtime) != 0; }))
+      << "the loop does not warn that it runs without real-time priority";
+  wb.start_recording(file, "trainee");
+  const std::uint64_t from = wb.loop()->ticks();
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.loop()->ticks() > from + 200; }));
+  wb.stop_recording();
+
+  const app::LoadedSession s = app::load_session(file.string());
+  // (Other warnings, a missed deadline on a loaded machine, may come too.)
+  std::vector<record::EventRecord> warnings;
+  for (const auto& e : s.file.events())
+    if (e.kind == record::EventKind::Warning && (static_cast<std::uint32_t>(e.value) & haptics::kWarnNoRealtime))
+      warnings.push_back(e);
+  ASSERT_EQ(warnings.size(), 1u) << "one event: the warning came on once and never went off";
+  const record::EventRecord& w = warnings[0];
+  EXPECT_NE(std::string(w.text).find("without real-time priority"), std::string::npos) << w.text;
+  EXPECT_GE(w.tick, s.first_tick);
+  EXPECT_LT(w.tick, s.first_tick + s.file.header().ticks) << "the event lies within the recorded ticks";
+}
+
 TEST(WorkbenchScenario, EditingWithoutAScenarioIsALogicError) {
   Workbench wb;
   EXPECT_THROW(wb.edit_scenario(scenario::Scenario{}), std::logic_error);
