@@ -247,10 +247,16 @@ class DeformMapper : public vtkOpenGLPolyDataMapper {
     vtkOpenGLIndexBufferObject* ibo = this->Primitives[PrimitiveTris].IBO;
     const std::size_t triangles = data ? data->mesh->triangle_count() : 0;
     if (ibo && this->VBOBuildTime.GetMTime() != built_at_) {
-      // VTK (re)built its buffers: the index buffer holds its full list.
+      // VTK (re)built its buffers: the index buffer holds its full list,
+      // read back the first time a limited draw needs it (never, in a view
+      // that always draws everything).
       built_at_ = this->VBOBuildTime.GetMTime();
       subset_ = false;
+      full_read_ = false;
       full_.clear();
+    }
+    if (ibo && data && data->limited && !full_read_) {
+      full_read_ = true;
       if (ibo->IndexCount == 3 * triangles && !this->HaveCellScalars && !this->HaveCellNormals) {
         full_.resize(ibo->IndexCount);
         ibo->Bind();
@@ -358,7 +364,8 @@ class DeformMapper : public vtkOpenGLPolyDataMapper {
   vtkSmartPointer<vtkTextureObject> rest_texture_, stream_texture_;
   bool textures_active_ = false;
   vtkMTimeType built_at_ = 0;        // VBOBuildTime when full_ was read
-  std::vector<unsigned> full_;       // VTK's triangle indices (empty: not ours to limit)
+  bool full_read_ = false;           // full_ read since VTK's last build
+  std::vector<unsigned> full_;       // VTK's triangle indices (empty: not read, or not ours to limit)
   std::vector<unsigned> part_;       // the chosen chunks' indices
   bool subset_ = false;              // the index buffer holds part_
   std::uint64_t bounds_version_ = ~std::uint64_t{0};
