@@ -4,12 +4,12 @@
 #include "haptics/cpu_plan.h"
 
 #include <algorithm>
-#include <cstdlib>
-#include <string_view>
 #include <chrono>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 namespace palpa::app {
 namespace {

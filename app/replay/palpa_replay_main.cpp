@@ -349,7 +349,15 @@ int run(const Options& o) {
   // (on this thread) overlaps the previous frame's rasterisation (on the
   // software renderer's threads); one stage after the other: one scene.
   std::vector<std::unique_ptr<SceneSet>> scenes;
+  // A clipping range that does not follow the probes: a frame's pixels then
+  // depend only on what is drawn, so a scene can redraw only what changed.
+  // The organ's box with room for the probes' shafts and arrows; a prop that
+  // leaves it grows it (and every scene redraws in full).
   std::array<double, 6> held_box{};
+  for (int a = 0; a < 3; ++a) {
+    held_box[2 * a] = facts.bbox_min[a] - 0.25 * size;
+    held_box[2 * a + 1] = facts.bbox_max[a] + 0.25 * size;
+  }
   for (int k = 0; k < (o.pipeline ? 2 : 1); ++k) {
     auto set = std::make_unique<SceneSet>(o.width, o.height, o.gl, mesh);
     set->scene.set_plain_blending(o.plain_blending);
@@ -373,17 +381,7 @@ int run(const Options& o) {
       set->probes.push_back(std::move(pv));
     }
     set->scene.look_at(set->view.bounds(), view_dir, Vec3::UnitZ());
-    // A clipping range that does not follow the probes: a frame's pixels
-    // then depend only on what is drawn, so a scene can redraw only what
-    // changed. The organ with room for the probes' shafts and arrows; a prop
-    // that leaves it grows it (and every scene redraws in full).
-    std::array<double, 6> box = set->view.bounds();
-    for (int k = 0; k < 3; ++k) {
-      box[2 * k] -= 0.25 * size;
-      box[2 * k + 1] += 0.25 * size;
-    }
-    set->scene.hold_clipping_range(box);
-    held_box = box;
+    set->scene.hold_clipping_range(held_box);
     scenes.push_back(std::move(set));
   }
   // Redrawing only what changed keeps every pass inside a scissor, which

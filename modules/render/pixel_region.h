@@ -16,6 +16,10 @@ struct PixelRect {
   bool empty() const { return x1 <= x0 || y1 <= y0; }
   /// Grows this rectangle to take in `o` (an empty one changes nothing).
   void unite(const PixelRect& o);
+  /// Whether the two share a pixel (never when either is empty).
+  bool overlaps(const PixelRect& o) const {
+    return !empty() && !o.empty() && x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1;
+  }
 };
 
 /// Where world points (m) land in a scene's frame, for the camera as it was

@@ -6,14 +6,13 @@
 
 #include <vtkActor.h>
 #include <vtkArrowSource.h>
+#include <vtkBoundingBox.h>
 #include <vtkCylinderSource.h>
 #include <vtkMatrix4x4.h>
 #include <vtkNew.h>
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
 #include <vtkRenderer.h>
-
-#include <algorithm>
 #include <vtkSmartPointer.h>
 #include <vtkSphereSource.h>
 
@@ -146,17 +145,12 @@ bool ProbeView::set_state(const Vec3& tip, const Vec3& axis, const Vec3& force, 
 }
 
 std::array<double, 6> ProbeView::bounds() const {
-  std::array<double, 6> b{1, -1, 1, -1, 1, -1};
-  for (vtkActor* a : {impl_->tip.Get(), impl_->shaft.Get(), impl_->arrow.Get()}) {
-    if (!a->GetVisibility()) continue;
-    const double* ab = a->GetBounds();
-    if (!ab || ab[0] > ab[1]) continue;
-    const bool first = b[0] > b[1];
-    for (int k = 0; k < 3; ++k) {
-      b[2 * k] = first ? ab[2 * k] : std::min(b[2 * k], ab[2 * k]);
-      b[2 * k + 1] = first ? ab[2 * k + 1] : std::max(b[2 * k + 1], ab[2 * k + 1]);
-    }
-  }
+  vtkBoundingBox box;  // invalid (min > max) until a visible actor adds its bounds
+  for (vtkActor* a : {impl_->tip.Get(), impl_->shaft.Get(), impl_->arrow.Get()})
+    if (a->GetVisibility())
+      if (const double* ab = a->GetBounds(); ab && vtkBoundingBox::IsValid(ab)) box.AddBounds(ab);
+  std::array<double, 6> b;
+  box.GetBounds(b.data());
   return b;
 }
 

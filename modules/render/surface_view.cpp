@@ -241,8 +241,9 @@ class DeformMapper : public vtkOpenGLPolyDataMapper {
 
   // Drawing some triangles only: VTK draws the triangles' index buffer as a
   // whole, so the buffer is given the chosen chunks' indices (taken from
-  // VTK's own list, read back once after each build: the same triangles, in
-  // the same order) and its full list again when everything is drawn.
+  // VTK's own list, read back after each build when a limited draw first
+  // needs it: the same triangles, in the same order) and its full list again
+  // when everything is drawn.
   void RenderPieceDraw(vtkRenderer* ren, vtkActor* act) override {
     vtkOpenGLIndexBufferObject* ibo = this->Primitives[PrimitiveTris].IBO;
     const std::size_t triangles = data ? data->mesh->triangle_count() : 0;
@@ -549,9 +550,7 @@ void SurfaceView::draw_only_near(const PixelProjection& projection, const PixelR
                         (k & 4) ? b[5] + grow : b[4] - grow);
       cover.add(Vec3(to_world.topLeftCorner<3, 3>() * corner + to_world.topRightCorner<3, 1>()));
     }
-    const PixelRect r = cover.rect(2);
-    if (r.x0 < region.x1 && region.x0 < r.x1 && r.y0 < region.y1 && region.y0 < r.y1)
-      d.drawn_chunks.push_back(static_cast<std::uint32_t>(c));
+    if (cover.rect(2).overlaps(region)) d.drawn_chunks.push_back(static_cast<std::uint32_t>(c));
   }
 }
 
