@@ -47,7 +47,7 @@ void SessionPlayer::restart_from(std::uint64_t tick) {
   if (tick > 0) {
     record::DecodedState d = s.file.snapshot(tick, *s.model);
     if (d.pending_map) pending_maps_.push_back(d.pending_map);
-    replay->restore({std::move(d.state), {}});
+    replay->restore({std::move(d.state), std::move(d.pending)});
   }
   replay_ = std::move(replay);
   shown_ = false;

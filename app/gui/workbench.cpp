@@ -1,10 +1,18 @@
 // The workbench's model: probes as devices of the real-time haptic loop.
 
 #include "app/gui/workbench.h"
+#include "app/replay/session_job.h"
 #include "haptics/cpu_plan.h"
+
+#include <pthread.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -44,6 +52,13 @@ Workbench::Workbench(devices::PluginLoader loader) : loader_(std::move(loader)) 
 
 Workbench::~Workbench() {
   end_recording_quietly();
+  // A seek snapshot pass under way stops between ticks; what it added stays.
+  {
+    std::lock_guard<std::mutex> lock(seek_mutex_);
+    seek_stop_.store(true);
+  }
+  seek_cv_.notify_all();
+  if (seek_thread_.joinable()) seek_thread_.join();
   stop_discarding();
   // The loop stops (zero force to every device) before the devices go.
   if (loop_) loop_->stop();
@@ -244,7 +259,49 @@ std::filesystem::path Workbench::stop_recording() {
     Resume resume{*this, *r};
     r->finish();  // throws RecordError when its writer failed
   }
+  if (seek_snapshot_interval_ > 0) {
+    {
+      std::lock_guard<std::mutex> lock(seek_mutex_);
+      seek_queue_.emplace_back(file, seek_snapshot_interval_);
+    }
+    if (!seek_thread_.joinable()) seek_thread_ = std::thread([this] { seek_snapshot_worker(); });
+    seek_cv_.notify_one();
+  }
   return file;
+}
+
+void Workbench::set_seek_snapshot_interval(double seconds) {
+  if (!(seconds >= 0) || !std::isfinite(seconds))
+    throw std::invalid_argument("seek snapshot interval: expected a time >= 0 s, got " + std::to_string(seconds));
+  seek_snapshot_interval_ = seconds;
+}
+
+bool Workbench::adding_seek_snapshots() const {
+  std::lock_guard<std::mutex> lock(seek_mutex_);
+  return seek_busy_ || !seek_queue_.empty();
+}
+
+void Workbench::seek_snapshot_worker() {
+  pthread_setname_np(pthread_self(), "palpa-seek-snap");
+  // Behind the loop's threads and the window: a replay at full speed is not urgent.
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 10);
+  std::unique_lock<std::mutex> lock(seek_mutex_);
+  for (;;) {
+    seek_cv_.wait(lock, [&] { return seek_stop_.load() || !seek_queue_.empty(); });
+    if (seek_stop_.load()) return;
+    const auto [file, interval] = seek_queue_.front();
+    seek_queue_.pop_front();
+    seek_busy_ = true;
+    lock.unlock();
+    try {
+      add_seek_snapshots(file.string(), interval, &seek_stop_);
+    } catch (const std::exception& e) {
+      // The recording itself is whole; only seeking far into it stays slower.
+      std::fprintf(stderr, "palpa: %s: no seek snapshots added: %s\n", file.string().c_str(), e.what());
+    }
+    lock.lock();
+    seek_busy_ = false;
+  }
 }
 
 void Workbench::end_recording_quietly() noexcept {

@@ -36,6 +36,9 @@
 #include "tissue/tissue.h"
 
 #include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -245,6 +248,15 @@ class Workbench {
   double record_pause() const { return record_pause_s_; }
   /// s of loop time since the recording started (0 when not recording).
   double recording_elapsed() const { return recorder_ ? loop_time_ - record_start_time_ : 0.0; }
+  /// Seek snapshots of a recording: the running loop is snapshot only where
+  /// a recording starts, so once it stops a background pass (one thread,
+  /// lowered priority) replays its file and adds a snapshot every `seconds`
+  /// of session time (app::add_seek_snapshots; default 5 s, as a headless
+  /// recording takes them); 0 turns the pass off for later recordings.
+  /// Throws std::invalid_argument for a negative or non-finite time.
+  void set_seek_snapshot_interval(double seconds);
+  /// True while that pass has a file to do or is doing one.
+  bool adding_seek_snapshots() const;
 
   /// Where probe `id` marks a finding (exam mode), organ frame, m: its
   /// contact point on the undeformed surface when in contact, else its tip
@@ -330,6 +342,16 @@ class Workbench {
   bool suspended_ = false;
   std::thread discard_thread_;
   std::atomic<bool> discard_stop_{false};
+
+  // The seek snapshot pass: recordings stopped, waiting for it, in order.
+  void seek_snapshot_worker();
+  double seek_snapshot_interval_ = 5.0;  // s; 0: off
+  mutable std::mutex seek_mutex_;
+  std::condition_variable seek_cv_;
+  std::deque<std::pair<std::filesystem::path, double>> seek_queue_;  // file, interval (s)
+  bool seek_busy_ = false;
+  std::atomic<bool> seek_stop_{false};
+  std::thread seek_thread_;
 };
 
 /// The core's material from the panel's settings.

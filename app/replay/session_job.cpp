@@ -8,6 +8,7 @@
 #include "tissue/regions.h"
 
 #include <algorithm>
+#include <set>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -89,7 +90,8 @@ bool differs(const haptics::Triple& a, const haptics::Triple& b, double& d) {
 void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to,
                     const std::function<void(const haptics::TickRecord&, std::span<const haptics::ProbeTickResult>,
                                              const deform::DeformableSurface&)>& each,
-                    ForceCheck& check, std::uint64_t window) {
+                    ForceCheck& check, std::uint64_t window,
+                    const std::function<void(const haptics::TickRecord&, const haptics::LoopReplay&)>& inspect) {
   const auto& h = s.file.header();
   to = std::min<std::uint64_t>(to, s.first_tick + h.ticks);
   from = std::max(from, s.first_tick);
@@ -97,13 +99,16 @@ void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to
   // Seek: the latest snapshot at or before `from`.
   std::shared_ptr<const deform::MaterialArrays> pending;
   std::uint64_t start = 0;
+  std::uint64_t asked_from = 0;  // the first window's deformation steps: from the oldest one still pending
   if (from > 0 && s.file.same_layout()) {
     for (const auto& snap : s.file.snapshots())
       if (snap.tick <= from && snap.tick > start) start = snap.tick;
     if (start > 0) {
       record::DecodedState d = s.file.snapshot(start, *s.model);
       pending = d.pending_map;
-      replay.restore({std::move(d.state), {}});
+      asked_from = start;
+      for (const auto& q : d.pending) asked_from = std::min(asked_from, q.tick);
+      replay.restore({std::move(d.state), std::move(d.pending)});
     }
   }
   haptics::LoopRecording rec;
@@ -113,7 +118,7 @@ void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to
     record::TickSpan span = s.file.ticks(w, end);
     if (span.ticks.empty()) break;
     rec.ticks = std::move(span.ticks);
-    rec.deforms = s.file.deforms(w, end);
+    rec.deforms = s.file.deforms(w == start ? asked_from : w, end);
     const auto& stored = span.results;
     replay.run(rec, [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r) {
       ++check.ticks;
@@ -132,8 +137,41 @@ void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to
         check.max_difference = std::max(check.max_difference, d);
       }
       if (t.tick >= from && each) each(t, r, replay.surface());
+      if (inspect) inspect(t, replay);
     });
   }
+}
+
+std::size_t add_seek_snapshots(const std::string& file, double interval_s, const std::atomic<bool>* cancel) {
+  if (!(interval_s > 0) || !std::isfinite(interval_s))
+    throw std::invalid_argument("add_seek_snapshots: the interval must be a time > 0 s, got " + std::to_string(interval_s));
+  const LoadedSession s = load_session(file);
+  const record::SessionHeader& h = s.file.header();
+  if (h.ticks == 0) return 0;
+  record::SnapshotAppender out(file);
+  std::set<std::uint64_t> have;
+  for (const auto& snap : s.file.snapshots()) have.insert(snap.tick);
+  const std::uint64_t end = s.first_tick + h.ticks;
+  const double t0 = s.file.ticks(s.first_tick, s.first_tick + 1).ticks.front().time;
+  double next = interval_s;
+  std::size_t added = 0;
+  struct Stop {};
+  ForceCheck check;
+  try {
+    replay_session(s, s.first_tick, end, nullptr, check, 20000,
+                   [&](const haptics::TickRecord& t, const haptics::LoopReplay& replay) {
+                     if ((cancel && cancel->load(std::memory_order_relaxed)) || !check.identical) throw Stop{};
+                     // replay.tick(): the next tick, where a seek from this state goes on.
+                     if (t.time - t0 < next || !record::storable(replay.pending()) || replay.tick() >= end) return;
+                     next = (std::floor((t.time - t0) / interval_s) + 1) * interval_s;
+                     if (have.count(replay.tick())) return;
+                     const haptics::ReplayState state = replay.snapshot();
+                     out.add(state.session, state.pending);
+                     ++added;
+                   });
+  } catch (const Stop&) {
+  }
+  return added;
 }
 
 assess::Report assess_session(const LoadedSession& s,

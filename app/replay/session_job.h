@@ -12,6 +12,7 @@
 #include "record/session_file.h"
 #include "tissue/lesion.h"
 
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -73,10 +74,26 @@ struct ForceCheck {
 /// the replayed results and the replayed surface. Compares forces
 /// (force_device always, force_world where stored) into `check`. Reads the
 /// file in windows of `window` ticks.
+/// `inspect` (may be empty) is called after `each` with the replay itself
+/// (from the first tick replayed, `from` or not).
 void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to,
                     const std::function<void(const haptics::TickRecord&, std::span<const haptics::ProbeTickResult>,
                                              const deform::DeformableSurface&)>& each,
-                    ForceCheck& check, std::uint64_t window = 20000);
+                    ForceCheck& check, std::uint64_t window = 20000,
+                    const std::function<void(const haptics::TickRecord&, const haptics::LoopReplay&)>& inspect = {});
+
+/// Replays the session file `file` once from its start and adds to it a
+/// snapshot every `interval_s` (s, > 0) of session time, each at the first
+/// tick past its time, stored with the deformation steps the replay had asked
+/// for and not yet made (so that a seek restores it exactly; a tick whose
+/// pending steps carry a material map or tissue edit waits for the next);
+/// ticks that already have one are skipped. Only while
+/// the replay is bit-identical to the recording: it stops at the first
+/// difference. `cancel` (may be null) set true stops it between ticks, the
+/// snapshots added so far kept. Returns how many it added. Throws
+/// record::RecordError naming the file, or std::invalid_argument for an
+/// interval that is not > 0.
+std::size_t add_seek_snapshots(const std::string& file, double interval_s, const std::atomic<bool>* cancel = nullptr);
 
 /// One line about a force check, e.g. "forces bit-identical to the recording
 /// over 5000 ticks" or "forces differ from tick 1234 (t = 1.234 s, probe 1) by

@@ -57,6 +57,9 @@ class LoopReplay {
            std::uint64_t until = ~std::uint64_t{0});
 
   ReplayState snapshot() const { return {session_->snapshot(), pending_}; }
+  /// The deformation steps asked for by replayed ticks and not yet made
+  /// (what snapshot().pending holds).
+  const std::deque<DeformRequest>& pending() const { return pending_; }
   void restore(const ReplayState& s) {
     session_->restore(s.session);
     pending_ = s.pending;

@@ -100,4 +100,9 @@ class Stmt {
 /// Now as ISO 8601 UTC, seconds.
 std::string utc_now();
 
+/// The snapshots table's insert (tick, time, generation, state), and its
+/// binding: what the recorder and SnapshotAppender both write.
+inline constexpr const char* kInsertSnapshot = "INSERT OR REPLACE INTO snapshots VALUES (?, ?, ?, ?)";
+void bind_snapshot(Stmt& st, const SnapshotInfo& info, std::span<const std::uint8_t> state);
+
 }  // namespace palpa::record::internal

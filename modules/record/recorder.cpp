@@ -364,12 +364,8 @@ void Recorder::Impl::commit(const char* state) {
     s.swap(snaps);
   }
   for (const auto& [info, blob] : s) {
-    Stmt& st = *ins_snap;
-    st.bind(1, static_cast<std::int64_t>(info.tick));
-    st.bind(2, info.time);
-    st.bind(3, static_cast<std::int64_t>(0));
-    st.bind(4, blob);
-    st.run();
+    bind_snapshot(*ins_snap, info, blob);
+    ins_snap->run();
   }
   Stmt& u = *upd_status;
   u.bind(1, std::string(state));
@@ -543,7 +539,7 @@ Recorder::Recorder(const std::filesystem::path& file, const haptics::SessionMode
   m.ins_def = std::make_unique<Stmt>(m.db, "INSERT INTO deform_chunks VALUES (?, ?, ?, ?, ?)");
   m.ins_evt = std::make_unique<Stmt>(
       m.db, "INSERT INTO events(tick, time, kind, probe, x, y, z, value, text) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)");
-  m.ins_snap = std::make_unique<Stmt>(m.db, "INSERT OR REPLACE INTO snapshots VALUES (?, ?, ?, ?)");
+  m.ins_snap = std::make_unique<Stmt>(m.db, kInsertSnapshot);
   m.upd_status = std::make_unique<Stmt>(
       m.db, "UPDATE status SET state = ?, updated_utc = ?, ticks = ?, dropped = ?, commits = ?, ended_utc = ? WHERE id = 0");
   m.ticks = std::make_unique<SpscQueue<Impl::TickItem>>(options.queue_capacity);

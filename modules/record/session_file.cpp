@@ -147,6 +147,13 @@ std::string utc_now() {
   return b;
 }
 
+void bind_snapshot(Stmt& st, const SnapshotInfo& info, std::span<const std::uint8_t> state) {
+  st.bind(1, static_cast<std::int64_t>(info.tick));
+  st.bind(2, info.time);
+  st.bind(3, static_cast<std::int64_t>(0));  // generation: not used by a seek
+  st.bind(4, state);
+}
+
 }  // namespace internal
 
 // ---- the reader ----------------------------------------------------------------
@@ -609,6 +616,35 @@ StorageFigures SessionFile::storage() const {
       "(SELECT coalesce(sum(length(value)), 0) FROM meta WHERE key = 'initial_materials')");
   s.snapshot_bytes = db.integer("SELECT coalesce(sum(length(state)), 0) FROM snapshots");
   return s;
+}
+
+struct SnapshotAppender::Impl {
+  Db db;
+};
+
+SnapshotAppender::SnapshotAppender(const std::filesystem::path& file) : impl_(std::make_unique<Impl>()) {
+  // The checks of a reader first: a file that is not a session says so.
+  const SessionFile f = SessionFile::open(file, false);
+  if (!f.same_layout())
+    throw RecordError(file, "cannot add snapshots: recorded by a build of another layout (" + f.header().layout + ")");
+  impl_->db = Db(file, SQLITE_OPEN_READWRITE);
+}
+
+SnapshotAppender::~SnapshotAppender() = default;
+
+void SnapshotAppender::add(const haptics::SessionState& s, const std::deque<haptics::DeformRequest>& pending) {
+  const std::vector<std::uint8_t> blob = encode_state(s, pending);
+  Db& db = impl_->db;
+  db.exec("BEGIN IMMEDIATE", "cannot begin a transaction");
+  try {
+    Stmt st(db, kInsertSnapshot);
+    bind_snapshot(st, SnapshotInfo{s.tick, s.core.last_tick_time}, blob);
+    st.run();
+    db.exec("COMMIT", "cannot commit");
+  } catch (...) {
+    sqlite3_exec(db.get(), "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
 }
 
 }  // namespace palpa::record

@@ -109,4 +109,27 @@ class SessionFile {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Adds seek snapshots to a recorded session file after the fact: a
+/// workbench recording, whose running loop is snapshot only where the
+/// recording starts, gets them from a replay of itself. Each add() is a
+/// transaction of its own, so a process killed meanwhile leaves the file as
+/// it was plus the snapshots added before; nothing else in the file
+/// changes. Throws RecordError naming the file (not a session file, recorded
+/// by a build of another layout, not writable).
+class SnapshotAppender {
+ public:
+  explicit SnapshotAppender(const std::filesystem::path& file);
+  ~SnapshotAppender();
+  SnapshotAppender(const SnapshotAppender&) = delete;
+  SnapshotAppender& operator=(const SnapshotAppender&) = delete;
+
+  /// Stores `s`, with a replay's `pending` deformation steps (see
+  /// encode_state), as the snapshot at tick s.tick (replacing one there).
+  void add(const haptics::SessionState& s, const std::deque<haptics::DeformRequest>& pending = {});
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 }  // namespace palpa::record

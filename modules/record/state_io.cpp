@@ -64,6 +64,7 @@ deform::MaterialArrays get_materials(Reader& r, std::size_t vertices) {
 // The fixed-size parts of the field are written field by field (no bool
 // or padding byte is copied), its per-vertex arrays as vectors.
 constexpr std::size_t kMaxTissues = 65536;
+constexpr std::uint32_t kMaxPendingSteps = 4096;  // a replay's steps asked for and not yet made
 
 // A vector whose count is checked against its limit and the bytes left,
 // naming it: "SetTissue command: the field's pulse 0 weights end early (...)".
@@ -315,7 +316,16 @@ std::shared_ptr<const deform::MaterialMap> get_map_ref(Reader& r, std::size_t n,
 
 }  // namespace
 
-std::vector<std::uint8_t> encode_state(const haptics::SessionState& s) {
+bool storable(const std::deque<haptics::DeformRequest>& pending) {
+  for (const auto& q : pending)
+    if (q.edits.material > 1 || q.edits.map || q.edits.tissue_map || q.edits.tissue) return false;
+  return true;
+}
+
+std::vector<std::uint8_t> encode_state(const haptics::SessionState& s,
+                                       const std::deque<haptics::DeformRequest>& pending) {
+  if (!storable(pending))
+    throw std::invalid_argument("snapshot: a pending deformation step with a material map or tissue edit");
   Writer w;
   w.put(s.tick);
   w.put(s.generation);
@@ -366,6 +376,21 @@ std::vector<std::uint8_t> encode_state(const haptics::SessionState& s) {
     if (!map) throw std::invalid_argument("snapshot: a per-vertex material source without its map");
     w.put<std::uint8_t>(1);
     put_materials(w, *map);
+  }
+  // A replay's pending steps (only when there are any: the bytes of a state
+  // without them stay those of earlier builds).
+  if (!pending.empty()) {
+    w.put(static_cast<std::uint32_t>(pending.size()));
+    for (const auto& q : pending) {
+      w.put(q.generation);
+      w.put(q.tick);
+      w.put(q.time);
+      w.put(q.dt);
+      w.put(q.contacts);
+      w.put<std::uint8_t>(q.edits.reset ? 1 : 0);
+      w.put(q.edits.material);
+      w.put(q.edits.uniform);
+    }
   }
   return internal::pack(w.bytes(), kStateMagic);
 }
@@ -451,6 +476,29 @@ DecodedState decode_state(std::span<const std::uint8_t> blob, const haptics::Ses
       haptics::validate_tissue(haptics::TissueModel{s.pending_tissue_map, nullptr}, n);
     } catch (const std::invalid_argument& e) {
       throw DecodeError(std::string("snapshot: its pending tissue map: ") + e.what());
+    }
+  }
+  if (!r.done()) {
+    const auto count = r.get<std::uint32_t>();
+    if (count == 0 || count > kMaxPendingSteps)
+      throw DecodeError("snapshot has " + std::to_string(count) + " pending deformation steps (1 to " +
+                        std::to_string(kMaxPendingSteps) + " expected)");
+    for (std::uint32_t k = 0; k < count; ++k) {
+      haptics::DeformRequest q;
+      q.generation = r.get<std::uint64_t>();
+      q.tick = r.get<std::uint64_t>();
+      q.time = r.get<double>();
+      q.dt = r.get<double>();
+      q.contacts = r.get<haptics::ContactSet>();
+      q.edits.reset = get_flag(r, "snapshot", "a pending step's reset flag");
+      q.edits.material = r.get<std::uint8_t>();
+      if (q.edits.material > 1)
+        throw DecodeError("snapshot has a pending step with material edit " + std::to_string(q.edits.material) +
+                          " (0 or 1 expected)");
+      q.edits.uniform = r.get<deform::Material>();
+      if (q.contacts.count > haptics::kMaxProbes)
+        throw DecodeError("snapshot has a pending step with " + std::to_string(q.contacts.count) + " contacts");
+      d.pending.push_back(q);
     }
   }
   if (!r.done()) throw DecodeError("snapshot has trailing bytes");

@@ -18,6 +18,7 @@
 #include "deform/material.h"
 #include "haptics/session.h"
 
+#include <deque>
 #include <memory>
 #include <span>
 #include <string>
@@ -35,10 +36,19 @@ std::string layout_tag();
 struct DecodedState {
   haptics::SessionState state;
   std::shared_ptr<const deform::MaterialArrays> pending_map;
+  /// Deformation steps a replay had asked for and not yet made (a snapshot
+  /// of a replay of a running loop's recording; empty otherwise).
+  std::deque<haptics::DeformRequest> pending;
 };
 
-/// `s` as bytes (deflated).
-std::vector<std::uint8_t> encode_state(const haptics::SessionState& s);
+/// `s` as bytes (deflated), with the replay's `pending` steps after it when
+/// there are any (a state without them encodes as before). A pending step
+/// may carry a reset or a uniform material edit, not a map or a tissue:
+/// std::invalid_argument otherwise.
+std::vector<std::uint8_t> encode_state(const haptics::SessionState& s,
+                                       const std::deque<haptics::DeformRequest>& pending = {});
+/// Whether encode_state can store `pending` (no map or tissue edit in it).
+bool storable(const std::deque<haptics::DeformRequest>& pending);
 /// The state back; `model` gives the tissue map a state that used the
 /// model's refers to. The SetTissue tissues and maps it names are owned by
 /// the decoded state (SessionState::tissue, surface_tissue, pending_tissue_map). Throws DecodeError (bad bytes, a tissue map the

@@ -358,4 +358,53 @@ TEST(ReplaySession, SeeksFromTheLatestSnapshot) {
   EXPECT_TRUE(all.identical) << palpa::app::describe(all);
 }
 
+// Snapshots added after the fact (a replay of the file, as for a workbench
+// recording): one per interval, each at the first tick past its time where
+// no deformation step is pending (the script steps every 3 or 4 ticks), and
+// a seek from each replays the rest of the recording bit-identically.
+TEST(ReplaySession, AddedSnapshotsSeekBitIdentically) {
+  const auto dir = palpa::record::test::temp_dir();
+  const auto file = dir / "snapshots_added.palpa";
+  fs::remove(file);
+  palpa::record::RecorderOptions o;
+  o.block_when_full = true;
+  o.snapshot_interval_s = 0;  // none while recording
+  palpa::record::test::Rig().record(file, 1500, o, [](auto&, auto, auto) {});
+  const auto before = palpa::app::load_session(file.string()).file.snapshots();
+
+  EXPECT_EQ(palpa::app::add_seek_snapshots(file.string(), 0.4), 3u);
+  const palpa::app::LoadedSession s = palpa::app::load_session(file.string());
+  std::vector<std::uint64_t> ticks;
+  for (const auto& snap : s.file.snapshots()) {
+    bool old = false;
+    for (const auto& b : before) old = old || b.tick == snap.tick;
+    if (!old) ticks.push_back(snap.tick);
+  }
+  ASSERT_EQ(ticks.size(), 3u);
+  for (std::size_t k = 0; k < ticks.size(); ++k) {
+    // Tick n runs at n ms: the interval's first tick is 400 (k + 1).
+    EXPECT_GT(ticks[k], 400 * (k + 1)) << "snapshot " << k;
+    EXPECT_LE(ticks[k], 400 * (k + 1) + 5) << "snapshot " << k << ": a step is pending for at most 4 ticks";
+    palpa::app::ForceCheck check;
+    std::uint64_t first = 0;
+    palpa::app::replay_session(s, ticks[k], 1500, [&](const auto& t, auto, const auto&) {
+      if (first == 0) first = t.tick;
+    }, check, 128);
+    EXPECT_EQ(first, ticks[k]);
+    EXPECT_EQ(check.ticks, 1500u - ticks[k]) << "replayed from the snapshot at tick " << ticks[k];
+    EXPECT_TRUE(check.identical) << palpa::app::describe(check);
+  }
+  // Again: every tick already has its snapshot, none is added.
+  EXPECT_EQ(palpa::app::add_seek_snapshots(file.string(), 0.4), 0u);
+
+  EXPECT_THROW(palpa::app::add_seek_snapshots(file.string(), 0), std::invalid_argument);
+  try {
+    palpa::app::add_seek_snapshots((dir / "no_such.palpa").string(), 0.4);
+    FAIL() << "no error";
+  } catch (const palpa::record::RecordError& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such.palpa"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no such file"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace

@@ -605,6 +605,42 @@ TEST(WorkbenchScenario, ARecordingKeepsTheLoopsWarningsAsEvents) {
   EXPECT_LT(w.tick, s.first_tick + s.file.header().ticks) << "the event lies within the recorded ticks";
 }
 
+// The running loop is snapshot only where a recording starts; once it
+// stops, a background replay of the file adds a snapshot every interval, and
+// a seek from the latest replays the rest of the recording bit-identically.
+TEST(WorkbenchScenario, AStoppedRecordingGetsSeekSnapshots) {
+  const auto dir = palpa::test::temp_dir("workbench_seek_snapshots");
+  const auto file = dir / "seek.palpa";
+  std::filesystem::remove(file);
+  Workbench wb;
+  EXPECT_THROW(wb.set_seek_snapshot_interval(-1), std::invalid_argument);
+  wb.set_seek_snapshot_interval(0.3);
+  const int id = wb.add_probe();
+  wb.open_scenario(shipped("breast_two_nodules.json"));
+  const auto& mesh = *wb.organ().mesh;
+  const Index top = top_vertex(mesh);
+  wb.place(id, mesh.positions[top], mesh.normals[top].normalized(), 0.004);
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.probe(id)->output.in_contact; }));
+  wb.start_recording(file, "trainee");
+  const std::uint64_t from = wb.loop()->ticks();
+  ASSERT_TRUE(wait_for(wb, [&] { return wb.loop()->ticks() > from + 1300; }));
+  const std::size_t at_start = app::load_session(file.string()).file.snapshots().size();
+  wb.stop_recording();
+  ASSERT_TRUE(wait_for(wb, [&] { return !wb.adding_seek_snapshots(); }, 60)) << "the pass did not end";
+
+  const app::LoadedSession s = app::load_session(file.string());
+  const auto snaps = s.file.snapshots();
+  EXPECT_EQ(at_start, 1u) << "a recording of the running loop starts with one snapshot";
+  ASSERT_GE(snaps.size(), at_start + 3) << "1.3 s at one per 0.3 s";
+  const std::uint64_t end = s.first_tick + s.file.header().ticks;
+  const std::uint64_t latest = snaps.back().tick;
+  EXPECT_GT(latest, s.first_tick + 900);
+  app::ForceCheck check;
+  app::replay_session(s, latest, end, nullptr, check);
+  EXPECT_EQ(check.ticks, end - latest) << "replayed from the snapshot at tick " << latest;
+  EXPECT_TRUE(check.identical) << app::describe(check);
+}
+
 TEST(WorkbenchScenario, EditingWithoutAScenarioIsALogicError) {
   Workbench wb;
   EXPECT_THROW(wb.edit_scenario(scenario::Scenario{}), std::logic_error);

@@ -391,6 +391,54 @@ TEST(StateIo, ASnapshotWithATissueEditPendingOrInForceRoundTripsAndStepsOnAlike)
   }
 }
 
+// A replay's pending deformation steps go with a snapshot and come back the
+// same; a state without them keeps the bytes it always had; a step with a
+// map edit cannot be stored and says so.
+TEST(StateIo, PendingStepsRoundTripWithASnapshot) {
+  const Rig rig;
+  auto s = rig.session();
+  const haptics::SessionState snap = s->snapshot();
+  std::deque<haptics::DeformRequest> pending(2);
+  pending[0].generation = 7;
+  pending[0].tick = 41;
+  pending[0].time = 0.041;
+  pending[0].dt = 1.0 / 300;
+  pending[0].contacts.tick = 41;
+  pending[0].contacts.count = 1;
+  pending[0].contacts.contacts[0].depth = 0.0025;
+  pending[1].generation = 8;
+  pending[1].tick = 44;
+  pending[1].edits.reset = true;
+  pending[1].edits.material = 1;
+  pending[1].edits.uniform = test::material(900);
+  EXPECT_EQ(encode_state(snap, {}), encode_state(snap)) << "no pending steps: the bytes of before";
+  const DecodedState d = decode_state(encode_state(snap, pending), *rig.model);
+  ASSERT_EQ(d.pending.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(d.pending[k].generation, pending[k].generation);
+    EXPECT_EQ(d.pending[k].tick, pending[k].tick);
+    EXPECT_EQ(d.pending[k].time, pending[k].time);
+    EXPECT_EQ(d.pending[k].dt, pending[k].dt);
+    EXPECT_EQ(d.pending[k].contacts.count, pending[k].contacts.count);
+    EXPECT_EQ(d.pending[k].contacts.contacts[0].depth, pending[k].contacts.contacts[0].depth);
+    EXPECT_EQ(d.pending[k].edits.reset, pending[k].edits.reset);
+    EXPECT_EQ(d.pending[k].edits.material, pending[k].edits.material);
+    EXPECT_EQ(d.pending[k].edits.uniform.stiffness, pending[k].edits.uniform.stiffness);
+  }
+  EXPECT_TRUE(decode_state(encode_state(snap), *rig.model).pending.empty());
+
+  const deform::MaterialArrays map = rig.initial;
+  pending[1].edits.material = 2;
+  pending[1].edits.map = &map;
+  EXPECT_FALSE(storable(pending));
+  try {
+    encode_state(snap, pending);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "snapshot: a pending deformation step with a material map or tissue edit");
+  }
+}
+
 TEST(Recorder, RefusesToOverwriteASession) {
   const auto file = test::temp_dir() / "exists.palpa";
   { std::ofstream(file) << "keep me"; }
