@@ -8,10 +8,10 @@
 #include "tissue/regions.h"
 
 #include <algorithm>
-#include <set>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <set>
 #include <stdexcept>
 
 namespace palpa::app {
