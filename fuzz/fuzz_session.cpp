@@ -179,8 +179,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     (void)f.storage();
     const auto snaps = f.snapshots();
     if (!snaps.empty() && f.same_layout()) {
+      // Every snapshot (an added seek snapshot holds pending steps the first,
+      // the recording's start, never has), at most 8.
       const auto model = palpa::haptics::SessionModel::make(mesh, h.options, h.config);
-      (void)f.snapshot(snaps.front().tick, *model);
+      for (std::size_t k = 0; k < snaps.size() && k < 8; ++k) {
+        try {
+          (void)f.snapshot(snaps[k].tick, *model);
+        } catch (const palpa::record::RecordError&) {
+        }
+      }
     }
   } catch (const palpa::record::RecordError&) {
   }

@@ -627,7 +627,12 @@ SnapshotAppender::SnapshotAppender(const std::filesystem::path& file) : impl_(st
   const SessionFile f = SessionFile::open(file, false);
   if (!f.same_layout())
     throw RecordError(file, "cannot add snapshots: recorded by a build of another layout (" + f.header().layout + ")");
+  if (f.header().status == SessionStatus::Recording)
+    throw RecordError(file, "cannot add snapshots: still being recorded (by process " +
+                                std::to_string(f.header().writer_pid) + ")");
   impl_->db = Db(file, SQLITE_OPEN_READWRITE);
+  if (sqlite3_db_readonly(impl_->db.get(), "main") != 0)
+    throw RecordError(file, "cannot add snapshots: the file is read-only");
 }
 
 SnapshotAppender::~SnapshotAppender() = default;

@@ -115,7 +115,7 @@ class SessionFile {
 /// transaction of its own, so a process killed meanwhile leaves the file as
 /// it was plus the snapshots added before; nothing else in the file
 /// changes. Throws RecordError naming the file (not a session file, recorded
-/// by a build of another layout, not writable).
+/// by a build of another layout, still being recorded, read-only).
 class SnapshotAppender {
  public:
   explicit SnapshotAppender(const std::filesystem::path& file);

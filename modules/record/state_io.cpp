@@ -5,6 +5,7 @@
 #include "record/internal_codec.h"
 
 #include <bit>
+#include <cmath>
 #include <type_traits>
 
 namespace palpa::record {
@@ -64,7 +65,6 @@ deform::MaterialArrays get_materials(Reader& r, std::size_t vertices) {
 // The fixed-size parts of the field are written field by field (no bool
 // or padding byte is copied), its per-vertex arrays as vectors.
 constexpr std::size_t kMaxTissues = 65536;
-constexpr std::uint32_t kMaxPendingSteps = 4096;  // a replay's steps asked for and not yet made
 
 // A vector whose count is checked against its limit and the bytes left,
 // naming it: "SetTissue command: the field's pulse 0 weights end early (...)".
@@ -314,9 +314,43 @@ std::shared_ptr<const deform::MaterialMap> get_map_ref(Reader& r, std::size_t n,
   throw DecodeError("snapshot names a tissue map it does not hold (reference " + std::to_string(code) + ")");
 }
 
+// A material read from a snapshot, checked as the model checks one it is
+// given (a damaged one would otherwise fail later, without the file's name).
+deform::Material get_material(Reader& r, const std::string& what) {
+  const auto m = r.get<deform::Material>();
+  try {
+    deform::validate_material(m, what);
+  } catch (const std::invalid_argument& e) {
+    throw DecodeError(std::string("snapshot: ") + e.what());
+  }
+  return m;
+}
+
+// A pending step's contacts, checked before a deformation step uses them:
+// at most kMaxProbes, at vertices of the mesh, finite, a known shape with a
+// radius > 0 (m).
+void check_contacts(const haptics::ContactSet& set, std::size_t vertices) {
+  if (set.count > haptics::kMaxProbes)
+    throw DecodeError("snapshot has a pending step with " + std::to_string(set.count) + " contacts, at most " +
+                      std::to_string(haptics::kMaxProbes));
+  for (std::uint32_t i = 0; i < set.count; ++i) {
+    const haptics::ContactRecord& c = set.contacts[i];
+    const std::string which = "snapshot has a pending step whose contact " + std::to_string(i);
+    if (c.vertex != kNoIndex && c.vertex >= vertices)
+      throw DecodeError(which + " is at vertex " + std::to_string(c.vertex) + " of " + std::to_string(vertices));
+    bool finite = std::isfinite(c.depth);
+    for (int k = 0; k < 3; ++k) finite = finite && std::isfinite(c.point[k]) && std::isfinite(c.normal[k]);
+    if (!finite) throw DecodeError(which + " has a position, normal or depth that is not finite");
+    if (static_cast<unsigned>(c.shape.kind) > static_cast<unsigned>(deform::ShapeKind::VolumeConserving) ||
+        !(c.shape.radius > 0) || !std::isfinite(c.shape.radius))
+      throw DecodeError(which + " has an unknown shape or a radius that is not > 0 m");
+  }
+}
+
 }  // namespace
 
 bool storable(const std::deque<haptics::DeformRequest>& pending) {
+  if (pending.size() > kMaxPendingSteps) return false;
   for (const auto& q : pending)
     if (q.edits.material > 1 || q.edits.map || q.edits.tissue_map || q.edits.tissue) return false;
   return true;
@@ -324,6 +358,9 @@ bool storable(const std::deque<haptics::DeformRequest>& pending) {
 
 std::vector<std::uint8_t> encode_state(const haptics::SessionState& s,
                                        const std::deque<haptics::DeformRequest>& pending) {
+  if (pending.size() > kMaxPendingSteps)
+    throw std::invalid_argument("snapshot: " + std::to_string(pending.size()) + " pending deformation steps, at most " +
+                                std::to_string(kMaxPendingSteps));
   if (!storable(pending))
     throw std::invalid_argument("snapshot: a pending deformation step with a material map or tissue edit");
   Writer w;
@@ -412,6 +449,13 @@ DecodedState decode_state(std::span<const std::uint8_t> blob, const haptics::Ses
   s.core.tissue = nullptr;
   if (s.core.pending.material > 3)
     throw DecodeError("snapshot has an unknown pending material edit " + std::to_string(s.core.pending.material));
+  if (s.core.pending.material == 1) {
+    try {
+      deform::validate_material(s.core.pending.uniform, "its pending material edit");
+    } catch (const std::invalid_argument& e) {
+      throw DecodeError(std::string("snapshot: ") + e.what());
+    }
+  }
   if (r.get<std::uint8_t>() != 0) {
     d.pending_map = std::make_shared<const deform::MaterialArrays>(get_materials(r, n));
     s.core.pending.map = d.pending_map.get();
@@ -450,7 +494,7 @@ DecodedState decode_state(std::span<const std::uint8_t> blob, const haptics::Ses
   const auto kind = r.get<std::uint8_t>();
   if (kind == 0) {
     s.materials.uniform = true;
-    s.materials.material = r.get<deform::Material>();
+    s.materials.material = get_material(r, "its material in force");
   } else if (kind == 1) {
     s.materials.uniform = false;
     s.materials.map = std::make_shared<const deform::MaterialArrays>(get_materials(r, n));
@@ -490,14 +534,13 @@ DecodedState decode_state(std::span<const std::uint8_t> blob, const haptics::Ses
       q.time = r.get<double>();
       q.dt = r.get<double>();
       q.contacts = r.get<haptics::ContactSet>();
+      check_contacts(q.contacts, n);
       q.edits.reset = get_flag(r, "snapshot", "a pending step's reset flag");
       q.edits.material = r.get<std::uint8_t>();
       if (q.edits.material > 1)
         throw DecodeError("snapshot has a pending step with material edit " + std::to_string(q.edits.material) +
                           " (0 or 1 expected)");
-      q.edits.uniform = r.get<deform::Material>();
-      if (q.contacts.count > haptics::kMaxProbes)
-        throw DecodeError("snapshot has a pending step with " + std::to_string(q.contacts.count) + " contacts");
+      q.edits.uniform = q.edits.material == 1 ? get_material(r, "a pending step's material") : r.get<deform::Material>();
       d.pending.push_back(q);
     }
   }

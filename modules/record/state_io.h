@@ -47,7 +47,11 @@ struct DecodedState {
 /// std::invalid_argument otherwise.
 std::vector<std::uint8_t> encode_state(const haptics::SessionState& s,
                                        const std::deque<haptics::DeformRequest>& pending = {});
-/// Whether encode_state can store `pending` (no map or tissue edit in it).
+/// The most pending deformation steps a snapshot holds (a reader refuses
+/// more as damaged).
+inline constexpr std::uint32_t kMaxPendingSteps = 4096;
+/// Whether encode_state can store `pending`: no map or tissue edit in it, at
+/// most kMaxPendingSteps steps.
 bool storable(const std::deque<haptics::DeformRequest>& pending);
 /// The state back; `model` gives the tissue map a state that used the
 /// model's refers to. The SetTissue tissues and maps it names are owned by

@@ -11,8 +11,15 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <deque>
 #include <fstream>
 #include <functional>
+#include <limits>
+#include <tuple>
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace palpa::record {
 namespace {
@@ -437,6 +444,118 @@ TEST(StateIo, PendingStepsRoundTripWithASnapshot) {
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "snapshot: a pending deformation step with a material map or tissue edit");
   }
+}
+
+// Damaged pending steps are refused with a message that names the fault,
+// before a deformation step could use them: a contact off the mesh, not
+// finite, of an unknown shape; a bad material; a count of steps out of
+// range or steps that end early (bytes edited after the state).
+TEST(StateIo, DamagedPendingStepsGiveAnError) {
+  const Rig rig;
+  auto s = rig.session();
+  const haptics::SessionState snap = s->snapshot();
+  const std::size_t n = rig.model->mesh->vertex_count();
+  const auto refused = [&](const std::deque<haptics::DeformRequest>& pending, const std::string& expected) {
+    try {
+      decode_state(encode_state(snap, pending), *rig.model);
+      ADD_FAILURE() << "no error; expected " << expected;
+    } catch (const DecodeError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  haptics::DeformRequest good;
+  good.tick = 3;
+  good.contacts.count = 1;
+  good.contacts.contacts[0].vertex = static_cast<Index>(n - 1);
+  good.contacts.contacts[0].depth = 0.002;
+  EXPECT_EQ(decode_state(encode_state(snap, {good}), *rig.model).pending.size(), 1u) << "the unedited step reads";
+
+  auto q = good;
+  q.contacts.contacts[0].vertex = static_cast<Index>(n);
+  refused({q}, "pending step whose contact 0 is at vertex " + std::to_string(n) + " of " + std::to_string(n));
+  q = good;
+  q.contacts.count = haptics::kMaxProbes + 1;
+  refused({q}, "pending step with " + std::to_string(haptics::kMaxProbes + 1) + " contacts");
+  q = good;
+  q.contacts.contacts[0].depth = std::numeric_limits<double>::quiet_NaN();
+  refused({q}, "not finite");
+  q = good;
+  q.contacts.contacts[0].shape.radius = 0;
+  refused({q}, "radius that is not > 0 m");
+  q = good;
+  q.contacts.contacts[0].shape.kind = static_cast<deform::ShapeKind>(7);
+  refused({q}, "unknown shape");
+  q = good;
+  q.edits.material = 1;
+  q.edits.uniform = test::material(400);
+  q.edits.uniform.mass = 0;
+  refused({q}, "snapshot: a pending step's material: mass");
+
+  // Counts and lengths, edited in the unpacked bytes: the count is the
+  // 4 bytes after the state; each step after it has a fixed size.
+  const std::uint32_t magic = 0x31535350;  // "PSS1", state_io.cpp's kStateMagic
+  const auto plain = internal::unpack(encode_state(snap), magic, "snapshot");
+  const auto with_one = internal::unpack(encode_state(snap, {good}), magic, "snapshot");
+  ASSERT_GT(with_one.size(), plain.size() + 4);
+  const auto edited = [&](std::uint32_t count, std::size_t cut) {
+    auto b = with_one;
+    std::memcpy(b.data() + plain.size(), &count, 4);
+    b.resize(b.size() - cut);
+    return internal::pack(b, magic);
+  };
+  for (const auto& [count, cut, expected] :
+       {std::tuple<std::uint32_t, std::size_t, std::string>{0, 0, "snapshot has 0 pending deformation steps"},
+        {kMaxPendingSteps + 1, 0, "snapshot has 4097 pending deformation steps (1 to 4096 expected)"},
+        {2, 0, "snapshot"},
+        {1, 1, "snapshot"}}) {
+    try {
+      decode_state(edited(count, cut), *rig.model);
+      ADD_FAILURE() << "no error for " << count << " steps, " << cut << " bytes cut";
+    } catch (const DecodeError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  }
+  // More steps than a reader takes are not stored at all.
+  const std::deque<haptics::DeformRequest> many(kMaxPendingSteps + 1, good);
+  EXPECT_FALSE(storable(many));
+  EXPECT_THROW(encode_state(snap, many), std::invalid_argument);
+  EXPECT_TRUE(storable(std::deque<haptics::DeformRequest>(kMaxPendingSteps, good)));
+}
+
+// Snapshots are added only to a finished (or interrupted) session: never
+// beside a writer that is still recording it (another process, alive; once
+// it is killed the file is interrupted and takes them).
+TEST(SnapshotAppender, RefusesASessionStillBeingRecorded) {
+  const auto file = test::temp_dir() / "still_recording.palpa";
+  std::filesystem::remove(file);
+  const Rig rig;
+  int ready[2], hold[2];
+  ASSERT_EQ(pipe(ready), 0);
+  ASSERT_EQ(pipe(hold), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    Recorder r(file, *rig.model, rig.initial, rig.setups, {});
+    char c = 1;
+    if (write(ready[1], &c, 1) != 1) _exit(2);
+    while (read(hold[0], &c, 1) < 0) {
+    }
+    _exit(0);  // never reached: the parent kills it
+  }
+  char c = 0;
+  ASSERT_EQ(read(ready[0], &c, 1), 1);
+  try {
+    SnapshotAppender a(file);
+    ADD_FAILURE() << "no error";
+  } catch (const RecordError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              file.string() + ": cannot add snapshots: still being recorded (by process " + std::to_string(child) + ")");
+  }
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  for (int fd : {ready[0], ready[1], hold[0], hold[1]}) close(fd);
+  EXPECT_NO_THROW(SnapshotAppender a(file)) << "an interrupted session takes snapshots";
 }
 
 TEST(Recorder, RefusesToOverwriteASession) {
