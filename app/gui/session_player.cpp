@@ -108,7 +108,11 @@ void SessionPlayer::run_to(std::uint64_t target) {
     if (span.ticks.empty())
       throw std::runtime_error(file_ + ": tick " + std::to_string(w) + " is missing from the file");
     rec.ticks = std::move(span.ticks);
-    rec.deforms = s.file.deforms(w > first_ + kDeformMargin ? w - kDeformMargin : first_, e + 1);
+    // The steps the replay has asked for and not yet made, from the oldest
+    // (a snapshot's pending steps may be older than the margin).
+    std::uint64_t asked = w > first_ + kDeformMargin ? w - kDeformMargin : first_;
+    for (const auto& q : replay_->pending()) asked = std::min(asked, q.tick);
+    rec.deforms = s.file.deforms(asked, e + 1);
     replay_->run(
         rec,
         [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r) {

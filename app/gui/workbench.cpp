@@ -297,7 +297,8 @@ void Workbench::seek_snapshot_worker() {
       add_seek_snapshots(file.string(), interval, &seek_stop_);
     } catch (const std::exception& e) {
       // The recording itself is whole; only seeking far into it stays slower.
-      std::fprintf(stderr, "palpa: %s: no seek snapshots added: %s\n", file.string().c_str(), e.what());
+      // (The errors name the file.)
+      std::fprintf(stderr, "palpa: seek snapshots not all added: %s\n", e.what());
     }
     lock.lock();
     seek_busy_ = false;

@@ -145,9 +145,10 @@ void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to
 std::size_t add_seek_snapshots(const std::string& file, double interval_s, const std::atomic<bool>* cancel) {
   if (!(interval_s > 0) || !std::isfinite(interval_s))
     throw std::invalid_argument("add_seek_snapshots: the interval must be a time > 0 s, got " + std::to_string(interval_s));
+  const auto cancelled = [cancel] { return cancel && cancel->load(std::memory_order_relaxed); };
   const LoadedSession s = load_session(file);
   const record::SessionHeader& h = s.file.header();
-  if (h.ticks == 0) return 0;
+  if (h.ticks == 0 || cancelled()) return 0;
   record::SnapshotAppender out(file);
   std::set<std::uint64_t> have;
   for (const auto& snap : s.file.snapshots()) have.insert(snap.tick);
@@ -160,7 +161,7 @@ std::size_t add_seek_snapshots(const std::string& file, double interval_s, const
   try {
     replay_session(s, s.first_tick, end, nullptr, check, 20000,
                    [&](const haptics::TickRecord& t, const haptics::LoopReplay& replay) {
-                     if ((cancel && cancel->load(std::memory_order_relaxed)) || !check.identical) throw Stop{};
+                     if (cancelled() || !check.identical) throw Stop{};
                      // replay.tick(): the next tick, where a seek from this state goes on.
                      if (t.time - t0 < next || !record::storable(replay.pending()) || replay.tick() >= end) return;
                      next = (std::floor((t.time - t0) / interval_s) + 1) * interval_s;
@@ -171,6 +172,11 @@ std::size_t add_seek_snapshots(const std::string& file, double interval_s, const
                    });
   } catch (const Stop&) {
   }
+  // A replay that no longer gives the recorded forces cannot stand for the
+  // recording's state: the snapshots stop there, and the caller hears why.
+  if (!check.identical && !cancelled())
+    throw std::runtime_error(file + ": seek snapshots stop at tick " + std::to_string(check.first_tick) + " (" +
+                             std::to_string(added) + " added): its replay " + describe(check));
   return added;
 }
 

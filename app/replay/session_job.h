@@ -86,13 +86,15 @@ void replay_session(const LoadedSession& s, std::uint64_t from, std::uint64_t to
 /// snapshot every `interval_s` (s, > 0) of session time, each at the first
 /// tick past its time, stored with the deformation steps the replay had asked
 /// for and not yet made (so that a seek restores it exactly; a tick whose
-/// pending steps carry a material map or tissue edit waits for the next);
-/// ticks that already have one are skipped. Only while
-/// the replay is bit-identical to the recording: it stops at the first
-/// difference. `cancel` (may be null) set true stops it between ticks, the
-/// snapshots added so far kept. Returns how many it added. Throws
-/// record::RecordError naming the file, or std::invalid_argument for an
-/// interval that is not > 0.
+/// pending steps carry a material map or tissue edit, or more than
+/// record::kMaxPendingSteps steps, waits for the next); ticks that already
+/// have one are skipped. Only while the replay is bit-identical to the
+/// recording: at the first difference it stops and throws
+/// std::runtime_error naming the file, the tick and how many it added (those
+/// are kept). `cancel` (may be null) set true stops it after loading or
+/// between ticks, the snapshots added so far kept. Returns how many it
+/// added. Throws record::RecordError naming the file, or
+/// std::invalid_argument for an interval that is not > 0.
 std::size_t add_seek_snapshots(const std::string& file, double interval_s, const std::atomic<bool>* cancel = nullptr);
 
 /// One line about a force check, e.g. "forces bit-identical to the recording

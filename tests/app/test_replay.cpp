@@ -97,20 +97,19 @@ TEST_F(ReplayCli, RecordNeverOverwrites) {
   EXPECT_EQ(r.err, "palpa-palpate: " + session_ + ": exists; a recorder never overwrites a session\n");
 }
 
-// Probe 1's positions moved by 1 mm from the chunk that holds t = 0.5 s on:
-// the replay says the forces differ from that chunk's first tick.
-TEST_F(ReplayCli, AlteredInputIsFoundFromTheTickItChanges) {
-  const std::string altered = (dir_ / "altered.palpa").string();
-  fs::copy_file(session_, altered, fs::copy_options::overwrite_existing);
+// Moves probe 0's recorded positions by 1 mm in x from the chunk that holds
+// tick `tick` on (to its end); returns that chunk's first tick.
+std::int64_t shift_probe_positions(const std::string& file, std::int64_t tick) {
   sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(altered.c_str(), &db), SQLITE_OK);
+  EXPECT_EQ(sqlite3_open(file.c_str(), &db), SQLITE_OK);
   sqlite3_stmt* st = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db,
-                               "SELECT first_tick, count, position FROM probe_chunks WHERE probe = 0 AND first_tick <= 500 "
+  EXPECT_EQ(sqlite3_prepare_v2(db,
+                               "SELECT first_tick, count, position FROM probe_chunks WHERE probe = 0 AND first_tick <= ? "
                                "ORDER BY first_tick DESC LIMIT 1",
                                -1, &st, nullptr),
             SQLITE_OK);
-  ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+  sqlite3_bind_int64(st, 1, tick);
+  EXPECT_EQ(sqlite3_step(st), SQLITE_ROW);
   const auto first = sqlite3_column_int64(st, 0);
   const auto count = static_cast<std::size_t>(sqlite3_column_int64(st, 1));
   const auto* b = static_cast<const std::uint8_t*>(sqlite3_column_blob(st, 2));
@@ -120,13 +119,22 @@ TEST_F(ReplayCli, AlteredInputIsFoundFromTheTickItChanges) {
   sqlite3_finalize(st);
   for (std::size_t i = 0; i < count; ++i) pos[3 * i] += 1e-3;
   const auto blob = palpa::record::internal::encode_column(pos.data(), pos.size(), 8, palpa::record::internal::Codec::XorFloat);
-  ASSERT_EQ(sqlite3_prepare_v2(db, "UPDATE probe_chunks SET position = ? WHERE probe = 0 AND first_tick = ?", -1, &st, nullptr),
+  EXPECT_EQ(sqlite3_prepare_v2(db, "UPDATE probe_chunks SET position = ? WHERE probe = 0 AND first_tick = ?", -1, &st, nullptr),
             SQLITE_OK);
   sqlite3_bind_blob(st, 1, blob.data(), static_cast<int>(blob.size()), SQLITE_TRANSIENT);
   sqlite3_bind_int64(st, 2, first);
-  ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+  EXPECT_EQ(sqlite3_step(st), SQLITE_DONE);
   sqlite3_finalize(st);
   sqlite3_close(db);
+  return first;
+}
+
+// Probe 1's positions moved by 1 mm from the chunk that holds t = 0.5 s on:
+// the replay says the forces differ from that chunk's first tick.
+TEST_F(ReplayCli, AlteredInputIsFoundFromTheTickItChanges) {
+  const std::string altered = (dir_ / "altered.palpa").string();
+  fs::copy_file(session_, altered, fs::copy_options::overwrite_existing);
+  const auto first = shift_probe_positions(altered, 500);
   const Result r = run(std::string(PALPA_REPLAY) + " " + altered);
   EXPECT_EQ(r.rc, 3) << r.out << r.err;
   EXPECT_NE(r.out.find("replay: forces differ from tick " + std::to_string(first) + " (t = "), std::string::npos) << r.out;
@@ -381,10 +389,15 @@ TEST(ReplaySession, AddedSnapshotsSeekBitIdentically) {
     if (!old) ticks.push_back(snap.tick);
   }
   ASSERT_EQ(ticks.size(), 3u);
+  std::size_t with_pending = 0;
   for (std::size_t k = 0; k < ticks.size(); ++k) {
-    // Tick n runs at n ms: the interval's first tick is 400 (k + 1).
-    EXPECT_GT(ticks[k], 400 * (k + 1)) << "snapshot " << k;
-    EXPECT_LE(ticks[k], 400 * (k + 1) + 5) << "snapshot " << k << ": a step is pending for at most 4 ticks";
+    // Tick n runs at n ms: the interval's first tick is 400 (k + 1) (one
+    // later where (k + 1) x 0.4 s rounds above its time), and the state after
+    // it is where the next tick starts (no map or tissue edit is pending in
+    // this session, so none waits).
+    EXPECT_GE(ticks[k], 400 * (k + 1) + 1) << "snapshot " << k;
+    EXPECT_LE(ticks[k], 400 * (k + 1) + 2) << "snapshot " << k;
+    with_pending += !s.file.snapshot(ticks[k], *s.model).pending.empty();
     palpa::app::ForceCheck check;
     std::uint64_t first = 0;
     palpa::app::replay_session(s, ticks[k], 1500, [&](const auto& t, auto, const auto&) {
@@ -394,10 +407,50 @@ TEST(ReplaySession, AddedSnapshotsSeekBitIdentically) {
     EXPECT_EQ(check.ticks, 1500u - ticks[k]) << "replayed from the snapshot at tick " << ticks[k];
     EXPECT_TRUE(check.identical) << palpa::app::describe(check);
   }
+  // The recorded steps come a few ticks after they are asked for, so a
+  // snapshot holds steps not yet made; stored without them, a seek from it
+  // does not give the recorded forces (what the pending steps are for).
+  ASSERT_GT(with_pending, 0u) << "no added snapshot holds pending steps: the test checks nothing about them";
+  {
+    const auto bare = dir / "snapshots_without_pending.palpa";
+    fs::remove(bare);
+    fs::copy_file(file, bare);
+    std::uint64_t tick = 0;
+    for (auto t : ticks)
+      if (!s.file.snapshot(t, *s.model).pending.empty()) tick = t;
+    palpa::record::SnapshotAppender(bare).add(s.file.snapshot(tick, *s.model).state, {});
+    const palpa::app::LoadedSession b = palpa::app::load_session(bare.string());
+    // Either the steps it would need are not read (an error) or the forces differ.
+    bool failed = false;
+    try {
+      palpa::app::ForceCheck check;
+      palpa::app::replay_session(b, tick, 1500, nullptr, check, 128);
+      failed = !check.identical;
+    } catch (const std::exception&) {
+      failed = true;
+    }
+    EXPECT_TRUE(failed) << "a seek from a snapshot stored without its pending steps gave the recorded forces";
+  }
   // Again: every tick already has its snapshot, none is added.
   EXPECT_EQ(palpa::app::add_seek_snapshots(file.string(), 0.4), 0u);
 
   EXPECT_THROW(palpa::app::add_seek_snapshots(file.string(), 0), std::invalid_argument);
+  // A file whose replay departs from its recorded forces gets snapshots only
+  // up to there, and the caller hears from which tick.
+  {
+    const auto altered = dir / "snapshots_altered.palpa";
+    palpa::record::test::Rig().record(altered, 1500, o, [](auto&, auto, auto) {});
+    const auto first = shift_probe_positions(altered.string(), 1200);
+    try {
+      palpa::app::add_seek_snapshots(altered.string(), 0.4);
+      ADD_FAILURE() << "no error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(altered.string() + ": seek snapshots stop at tick " + std::to_string(first) +
+                                           " (2 added): its replay forces differ from tick " + std::to_string(first)),
+                std::string::npos)
+          << e.what();
+    }
+  }
   try {
     palpa::app::add_seek_snapshots((dir / "no_such.palpa").string(), 0.4);
     FAIL() << "no error";
