@@ -5,13 +5,9 @@
 // without them is replayed first.
 
 #include "app/replay/export.h"
-#include "app/replay/overlay.h"
 #include "app/replay/session_job.h"
 #include "assess/assess.h"
 
-#include <opencv2/imgcodecs.hpp>
-
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -91,45 +87,9 @@ int main(int argc, char** argv) {
   }
   try {
     app::LoadedSession s = app::load_session(session);
-    const auto& h = s.file.header();
-    assess::Options opt;
-    opt.tip_radius = s.tip_radius;
-    opt.roi = s.roi;
-    assess::Assessor a(s.model->mesh, s.lesions, s.task, opt);
-    std::vector<std::pair<double, double>> curve;  // (s, max |F| over 50 ms)
-    double t0 = 0;
-    bool first = true;
-    auto add = [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r) {
-      a.add(t, r);
-      if (first) {
-        t0 = t.time;
-        first = false;
-      }
-      double f = 0;
-      for (const auto& p : r) f = std::max(f, haptics::to_vec(p.force_world).norm());
-      const double bucket = std::floor((t.time - t0) / 0.05) * 0.05;
-      if (curve.empty() || curve.back().first < bucket)
-        curve.emplace_back(bucket, f);
-      else
-        curve.back().second = std::max(curve.back().second, f);
-    };
-    // The stored results, or a replay when the file has none.
-    const std::uint64_t first_tick = s.first_tick;  // 0 unless recorded from a running loop
-    const bool stored = h.ticks > 0 && !s.file.ticks(first_tick, first_tick + 1).results.empty();
-    if (stored) {
-      for (std::uint64_t w = first_tick; w < first_tick + h.ticks; w += 20000) {
-        const auto span = s.file.ticks(w, w + 20000);
-        if (span.ticks.empty() || span.results.size() != span.ticks.size()) break;
-        for (std::size_t k = 0; k < span.ticks.size(); ++k)
-          add(span.ticks[k], std::span<const haptics::ProbeTickResult>(span.results[k].data(), span.ticks[k].probe_count));
-      }
-    } else if (h.ticks > 0) {
-      app::ForceCheck check;
-      app::replay_session(s, first_tick, first_tick + h.ticks, [&](const auto& t, auto r, const auto&) { add(t, r); }, check);
-      std::printf("(no results stored: replayed; %s)\n", app::describe(check).c_str());
-    }
-    assess::Report r = a.finish(s.file.events());
-    r.session_status = std::string(record::status_name(h.status));
+    const app::AssessedSession out = app::assess_session_report(s, session);
+    if (out.replayed) std::printf("(no results stored: replayed; %s)\n", app::describe(out.check).c_str());
+    const assess::Report& r = out.report;
     std::printf("%s\n", r.verdict.c_str());
     std::printf("exam %.1f s, in contact %.1f s; light / medium / deep %.1f / %.1f / %.1f s; coverage %.1f%% "
                 "(light %.1f%%, medium %.1f%%, deep %.1f%%), largest gap %.0f mm across\n",
@@ -142,16 +102,9 @@ int main(int argc, char** argv) {
                   l.found ? "" : l.missed.c_str(), 100 * l.max_contrast);
     if (!json.empty()) write_file(json, assess::to_json(r));
     if (!csv.empty()) app::write_ticks_csv(s, csv);
-    if (!vtp.empty()) app::write_coverage_vtp(a.coverage(), vtp);
+    if (!vtp.empty()) app::write_coverage_vtp(*out.coverage, vtp);
     if (!markups.empty()) write_file(markups, app::markups_json(r));
-    if (!html.empty()) {
-      std::vector<std::uint8_t> png;
-      cv::imencode(".png", app::coverage_map(a.coverage(), Vec3(0, -std::sin(0.61), std::cos(0.61)), Vec3::UnitZ(), 480),
-                   png);
-      const std::string title = "Palpa assessment: " + (s.scenario_title.empty() ? session : s.scenario_title) +
-                                (h.info.trainee.empty() ? "" : " (" + h.info.trainee + ")");
-      write_file(html, assess::to_html(r, title, png, curve, s.force_limit));
-    }
+    if (!html.empty()) write_file(html, out.html);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "palpa-assess: %s\n", e.what());

@@ -2,6 +2,7 @@
 
 #include "app/replay/session_job.h"
 
+#include "app/replay/overlay.h"
 #include "mesh/spatial_order.h"
 #include "scenario/resolve.h"
 #include "scenario/scenario.h"
@@ -13,6 +14,8 @@
 #include <cstring>
 #include <set>
 #include <stdexcept>
+
+#include <opencv2/imgcodecs.hpp>
 
 namespace palpa::app {
 
@@ -180,20 +183,21 @@ std::size_t add_seek_snapshots(const std::string& file, double interval_s, const
   return added;
 }
 
-assess::Report assess_session(const LoadedSession& s,
-                              const std::function<void(const haptics::TickRecord&,
-                                                       std::span<const haptics::ProbeTickResult>)>& each) {
+namespace {
+
+// Feeds the assessor every tick: the stored results, or a replay of the
+// session when the file has none (a recording of the live loop).
+void assess_ticks(const LoadedSession& s, assess::Assessor& a,
+                  const std::function<void(const haptics::TickRecord&, std::span<const haptics::ProbeTickResult>)>& each,
+                  bool& replayed, ForceCheck& check) {
   const auto& h = s.file.header();
-  assess::Options opt;
-  opt.tip_radius = s.tip_radius;
-  opt.roi = s.roi;
-  assess::Assessor a(s.model->mesh, s.lesions, s.task, opt);
   auto add = [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r) {
     a.add(t, r);
     if (each) each(t, r);
   };
   const std::uint64_t first = s.first_tick, end = s.first_tick + h.ticks;
   const bool stored = h.ticks > 0 && !s.file.ticks(first, first + 1).results.empty();
+  replayed = false;
   if (stored) {
     for (std::uint64_t w = first; w < end; w += 20000) {
       const auto span = s.file.ticks(w, w + 20000);
@@ -202,12 +206,68 @@ assess::Report assess_session(const LoadedSession& s,
         add(span.ticks[k], std::span<const haptics::ProbeTickResult>(span.results[k].data(), span.ticks[k].probe_count));
     }
   } else if (h.ticks > 0) {
-    ForceCheck check;
+    replayed = true;
     replay_session(s, first, end, [&](const auto& t, auto r, const auto&) { add(t, r); }, check);
   }
+}
+
+assess::Options assess_options(const LoadedSession& s) {
+  assess::Options opt;
+  opt.tip_radius = s.tip_radius;
+  opt.roi = s.roi;
+  return opt;
+}
+
+}  // namespace
+
+assess::Report assess_session(const LoadedSession& s,
+                              const std::function<void(const haptics::TickRecord&,
+                                                       std::span<const haptics::ProbeTickResult>)>& each) {
+  assess::Assessor a(s.model->mesh, s.lesions, s.task, assess_options(s));
+  bool replayed = false;
+  ForceCheck check;
+  assess_ticks(s, a, each, replayed, check);
   assess::Report r = a.finish(s.file.events());
-  r.session_status = std::string(record::status_name(h.status));
+  r.session_status = std::string(record::status_name(s.file.header().status));
   return r;
+}
+
+AssessedSession assess_session_report(const LoadedSession& s, const std::string& name,
+                                      const std::function<void(const haptics::TickRecord&,
+                                                               std::span<const haptics::ProbeTickResult>)>& each) {
+  const auto& h = s.file.header();
+  AssessedSession out;
+  assess::Assessor a(s.model->mesh, s.lesions, s.task, assess_options(s));
+  double t0 = 0;
+  bool first = true;
+  auto& curve = out.force_curve;
+  assess_ticks(
+      s, a,
+      [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> r) {
+        if (first) {
+          t0 = t.time;
+          first = false;
+        }
+        double f = 0;
+        for (const auto& p : r) f = std::max(f, haptics::to_vec(p.force_world).norm());
+        const double bucket = std::floor((t.time - t0) / 0.05) * 0.05;
+        if (curve.empty() || curve.back().first < bucket)
+          curve.emplace_back(bucket, f);
+        else
+          curve.back().second = std::max(curve.back().second, f);
+        if (each) each(t, r);
+      },
+      out.replayed, out.check);
+  out.report = a.finish(s.file.events());
+  out.report.session_status = std::string(record::status_name(h.status));
+  out.coverage.emplace(a.coverage());
+  cv::imencode(".png", coverage_map(a.coverage(), Vec3(0, -std::sin(0.61), std::cos(0.61)), Vec3::UnitZ(), 480),
+               out.coverage_png);
+  out.title = "Palpa assessment: " + (s.scenario_title.empty() ? name : s.scenario_title) +
+              (h.info.trainee.empty() ? "" : " (" + h.info.trainee + ")");
+  out.force_limit = s.force_limit;
+  out.html = assess::to_html(out.report, out.title, out.coverage_png, out.force_curve, out.force_limit);
+  return out;
 }
 
 std::string describe(const ForceCheck& c) {

@@ -17,6 +17,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace palpa::app {
@@ -66,6 +67,28 @@ struct ForceCheck {
   double max_difference = 0;          ///< N, over every tick compared
   std::uint32_t first_probe = 0;
 };
+
+/// A session's assessment with everything its report page shows.
+struct AssessedSession {
+  assess::Report report;
+  /// (s since the first tick, the largest |F| of any probe over each 50 ms, N)
+  std::vector<std::pair<double, double>> force_curve;
+  std::optional<assess::Coverage> coverage;  ///< per vertex: levels, peak force (N)
+  std::vector<std::uint8_t> coverage_png;    ///< the coverage map on the organ, 480 px square
+  double force_limit = 0;                    ///< N, the scenario's (0: none)
+  std::string title;                         ///< "Palpa assessment: SCENARIO (TRAINEE)"
+  std::string html;                          ///< the self-contained report page (assess::to_html)
+  bool replayed = false;                     ///< no results stored: the ticks were replayed
+  ForceCheck check;                          ///< when replayed, how its forces compared
+};
+
+/// assess_session, and the report page palpa-assess --html writes (the
+/// same bytes): the coverage map rendered on the organ, the force plot and
+/// the tables. `name` heads the page when the session has no scenario
+/// title (palpa-assess passes the file as given).
+AssessedSession assess_session_report(const LoadedSession& s, const std::string& name,
+                                      const std::function<void(const haptics::TickRecord&,
+                                                               std::span<const haptics::ProbeTickResult>)>& each = {});
 
 /// Re-runs the session from tick `from` (from the latest snapshot at or
 /// before it, else from tick 0; ticks before `from` are replayed but not
