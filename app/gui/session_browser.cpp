@@ -2,7 +2,7 @@
 
 #include "app/gui/session_browser.h"
 
-#include "app/replay/session_job.h"
+#include "app/gui/assessment_dialog.h"
 #include "record/session_file.h"
 
 #include <QDateTime>
@@ -59,6 +59,13 @@ SessionBrowser::SessionBrowser(QWidget* parent) : QWidget(parent) {
       emit open_requested(entries_[static_cast<std::size_t>(r)].path);
   });
   row->addWidget(open);
+  assessment_button_ = new QPushButton("Assessment");
+  assessment_button_->setObjectName("sessionAssessment");
+  assessment_button_->setToolTip(
+      "Show the selected session's assessment report: coverage map, force plot, numbers and lesions "
+      "(sessions with a scenario, once scored)");
+  connect(assessment_button_, &QPushButton::clicked, this, [this] { show_assessment(table_->currentRow()); });
+  row->addWidget(assessment_button_);
   outer->addLayout(row);
 
   table_ = new QTableWidget(0, kColumns);
@@ -67,7 +74,7 @@ SessionBrowser::SessionBrowser(QWidget* parent) : QWidget(parent) {
   table_->horizontalHeaderItem(kDuration)->setToolTip("Recorded ticks over the tick rate, s");
   table_->horizontalHeaderItem(kScore)->setToolTip(
       "The assessment's score, 0..100% (docs/ASSESSMENT.md), for sessions with a scenario; computed in the "
-      "background (a replay of the session when it stores no results)");
+      "background (a replay of the session when it stores no results); Assessment shows the whole report");
   table_->horizontalHeaderItem(kStatus)->setToolTip("recording, finished or interrupted; or why the file does not open");
   table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
   table_->setSelectionBehavior(QAbstractItemView::SelectRows);
@@ -79,7 +86,9 @@ SessionBrowser::SessionBrowser(QWidget* parent) : QWidget(parent) {
     if (r >= 0 && r < count() && entries_[static_cast<std::size_t>(r)].error.isEmpty())
       emit open_requested(entries_[static_cast<std::size_t>(r)].path);
   });
+  connect(table_, &QTableWidget::currentCellChanged, this, [this] { update_buttons(); });
   outer->addWidget(table_, 1);
+  update_buttons();
 
   worker_ = std::thread([this] { worker_main(); });
 }
@@ -148,6 +157,7 @@ void SessionBrowser::refresh() {
           e.score = it->second.score;
           e.passed = it->second.passed;
           e.score_error = it->second.error;
+          e.assessment = it->second.assessment;
         } else {
           e.score_state = SessionEntry::Score::Pending;
           jobs.emplace_back(key, e.path);
@@ -161,6 +171,7 @@ void SessionBrowser::refresh() {
   table_->setRowCount(count());
   for (int r = 0; r < count(); ++r) fill_row(r);
   table_->resizeColumnsToContents();
+  update_buttons();
   if (!jobs.empty()) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -231,7 +242,33 @@ void SessionBrowser::score_done(const QString& key, const QString& path, const S
   e.score = result.score;
   e.passed = result.passed;
   e.score_error = result.error;
+  e.assessment = result.assessment;
   fill_row(r);
+  update_buttons();
+}
+
+void SessionBrowser::update_buttons() {
+  const int r = table_->currentRow();
+  assessment_button_->setEnabled(r >= 0 && r < count() && entries_[static_cast<std::size_t>(r)].assessment != nullptr);
+}
+
+AssessmentDialog* SessionBrowser::show_assessment(int row) {
+  if (row < 0 || row >= count()) return nullptr;
+  const SessionEntry& e = entries_[static_cast<std::size_t>(row)];
+  if (!e.assessment) return nullptr;
+  QPointer<AssessmentDialog>& d = dialogs_[e.path];
+  if (d && &d->assessment() != e.assessment.get()) {  // the file changed since: a new report
+    d->close();
+    d = nullptr;
+  }
+  if (!d) {
+    d = new AssessmentDialog(e.assessment, e.path, this);
+    d->setAttribute(Qt::WA_DeleteOnClose);
+  }
+  d->show();
+  d->raise();
+  d->activateWindow();
+  return d;
 }
 
 // One file at a time: open, rebuild the model, assess (replaying when the
@@ -249,12 +286,14 @@ void SessionBrowser::worker_main() {
     ScoreResult r;
     try {
       const LoadedSession s = load_session(job.second.toStdString());
-      const assess::Report report = assess_session(s, [this](const auto&, auto) {
+      AssessedSession a = assess_session_report(s, job.second.toStdString(), [this](const auto&, auto) {
         if (quit_.load(std::memory_order_relaxed)) throw Cancelled{};
       });
+      a.coverage.reset();  // the page holds its picture; the per-vertex arrays are not kept
       r.ok = true;
-      r.score = report.score;
-      r.passed = report.passed;
+      r.score = a.report.score;
+      r.passed = a.report.passed;
+      r.assessment = std::make_shared<const AssessedSession>(std::move(a));
     } catch (const Cancelled&) {
       return;
     } catch (const std::exception& e) {

@@ -7,8 +7,12 @@
 // user's sessions are never touched. Scores (modules/assess, for sessions
 // with a scenario) are computed one file at a time on a worker thread, a
 // replay each when the file stores no results, and cached by file, size and
-// modification time. Double-click (or open_requested) opens one for replay.
+// modification time. Double-click (or open_requested) opens one for replay;
+// Assessment shows a scored session's report (AssessmentDialog).
 
+#include "app/replay/session_job.h"
+
+#include <QPointer>
 #include <QString>
 #include <QWidget>
 
@@ -21,6 +25,7 @@
 #include <vector>
 
 class QLabel;
+class QPushButton;
 class QTableWidget;
 
 namespace palpa::app {
@@ -40,7 +45,11 @@ struct SessionEntry {
   double score = 0;    ///< 0..1 (Done)
   bool passed = false;
   QString score_error; ///< Failed: why
+  /// Done: the whole assessment (its report page, the numbers).
+  std::shared_ptr<const AssessedSession> assessment;
 };
+
+class AssessmentDialog;
 
 class SessionBrowser : public QWidget {
   Q_OBJECT
@@ -65,6 +74,10 @@ class SessionBrowser : public QWidget {
   /// True when no score is being computed or waits.
   bool scores_idle() const;
   QTableWidget* table() const { return table_; }
+  /// Shows the assessment report of `row` (a scored session) in a window of
+  /// its own and returns it (one window per session: shown again when
+  /// asked again); null when the row has no score yet (or none to have).
+  AssessmentDialog* show_assessment(int row);
 
  signals:
   /// A session was double-clicked (or Open pressed): replay it.
@@ -78,9 +91,11 @@ class SessionBrowser : public QWidget {
     double score = 0;
     bool passed = false;
     QString error;
+    std::shared_ptr<const AssessedSession> assessment;
   };
   void showEvent(QShowEvent* event) override;
   void fill_row(int row);
+  void update_buttons();
   void score_done(const QString& key, const QString& path, const ScoreResult& r);
   void worker_main();
   static QString cache_key(const QString& path);
@@ -89,6 +104,8 @@ class SessionBrowser : public QWidget {
   bool stale_ = true;  // the folder changed since it was last read
   QLabel* folder_label_ = nullptr;
   QTableWidget* table_ = nullptr;
+  QPushButton* assessment_button_ = nullptr;
+  std::map<QString, QPointer<AssessmentDialog>> dialogs_;  // by file
   std::vector<SessionEntry> entries_;
   std::map<QString, ScoreResult> scores_;  // by cache_key (GUI thread)
 

@@ -9,6 +9,7 @@
 // The loop runs in real time: the tests wait for conditions with a timeout
 // and never assert wall-time figures.
 
+#include "app/gui/assessment_dialog.h"
 #include "app/gui/main_window.h"
 #include "app/gui/replay_panel.h"
 #include "app/gui/session_browser.h"
@@ -27,10 +28,13 @@
 #include <QSettings>
 #include <QSlider>
 #include <QTableWidget>
+#include <QTextBlock>
+#include <QTextDocument>
 #include <QTest>
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <functional>
 #include <iterator>
@@ -253,6 +257,47 @@ TEST_F(SessionsGuiTest, TheBrowserScoresAScenarioSessionAsTheAssessModuleDoes) {
   const assess::Report expected = assess_session(load_session(file.string()));
   EXPECT_DOUBLE_EQ(e.score, expected.score);
   EXPECT_EQ(e.passed, expected.passed);
+
+  // Assessment shows the report: the verdict and every lesion in the text,
+  // the coverage map and the force plot as images the view can load; Save
+  // writes what palpa-assess writes for the same file, byte for byte.
+  AssessmentDialog* d = b->show_assessment(b->row_of(QString::fromStdString(file.string())));
+  ASSERT_NE(d, nullptr);
+  EXPECT_TRUE(d->isVisible());
+  EXPECT_EQ(b->show_assessment(b->row_of(QString::fromStdString(file.string()))), d) << "one window per session";
+  const QString text = d->view()->toPlainText();
+  EXPECT_TRUE(text.contains(QString::fromStdString(expected.verdict))) << text.toStdString();
+  for (const auto& l : expected.lesions) EXPECT_TRUE(text.contains(QString::fromStdString(l.name))) << l.name;
+  std::vector<QSize> images;
+  for (QTextBlock block = d->view()->document()->begin(); block.isValid(); block = block.next())
+    for (auto it = block.begin(); !it.atEnd(); ++it)
+      if (it.fragment().charFormat().isImageFormat()) {
+        const QTextImageFormat f = it.fragment().charFormat().toImageFormat();
+        const QImage image = d->view()->loadResource(QTextDocument::ImageResource, QUrl(f.name())).value<QImage>();
+        images.push_back(image.size());
+      }
+  ASSERT_EQ(images.size(), 2u) << "the coverage map and the force plot";
+  EXPECT_EQ(images[0], QSize(480, 480)) << "the coverage map";
+  EXPECT_EQ(images[1], QSize(860, 280)) << "the force plot";
+  const auto html = folder_ / "report.html", json = folder_ / "report.json";
+  const auto cli_html = folder_ / "cli.html", cli_json = folder_ / "cli.json";
+  QString error;
+  ASSERT_TRUE(d->save_html(QString::fromStdString(html.string()), &error)) << error.toStdString();
+  ASSERT_TRUE(d->save_json(QString::fromStdString(json.string()), &error)) << error.toStdString();
+  const std::string command = std::string(PALPA_ASSESS) + " '" + file.string() + "' --html '" + cli_html.string() +
+                              "' --json '" + cli_json.string() + "' > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  const auto bytes = [](const std::filesystem::path& f) {
+    std::ifstream in(f, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  EXPECT_FALSE(bytes(cli_html).empty());
+  EXPECT_TRUE(bytes(html) == bytes(cli_html)) << "the saved page is not palpa-assess's";
+  EXPECT_TRUE(bytes(json) == bytes(cli_json)) << "the saved numbers are not palpa-assess's";
+  EXPECT_FALSE(d->save_html(QString::fromStdString((folder_ / "no_such_dir" / "r.html").string()), &error));
+  EXPECT_TRUE(error.contains("no_such_dir")) << error.toStdString();
+  EXPECT_EQ(b->show_assessment(-1), nullptr);
+  d->close();
 }
 
 TEST_F(SessionsGuiTest, ReplaySeeksToATimeAndShowsTheRecordedTickAndSurface) {
