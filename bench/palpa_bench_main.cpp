@@ -456,6 +456,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     std::array<haptics::ProbeTickResult, kMaxProbes> results{};
     // Ticks split by whether a step ran just before them on this thread.
     std::vector<double> tick_ns, step_ns, tick_after_step_ns, tick_other_ns;
+    // Ticks split by the slowest contact path any probe took (walk < proxy < tree).
+    std::array<std::vector<double>, 3> tick_by_path;
     bool stepped = false;
     tick_ns.reserve(plan.ticks);
     step_ns.reserve(plan.ticks);
@@ -476,10 +478,14 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       if (k >= plan.warmup) {
         tick_ns.push_back(elapsed_ns(a, b));
         (after_step ? tick_after_step_ns : tick_other_ns).push_back(elapsed_ns(a, b));
+        int slowest = 0;  // 0 walk, 1 proxy, 2 tree
         for (int p = 0; p < probes; ++p) {
           contact_ticks += results[p].in_contact;
           walk_ticks += results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Walk);
+          if (results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Proxy)) slowest = std::max(slowest, 1);
+          if (results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Tree)) slowest = 2;
         }
+        tick_by_path[slowest].push_back(elapsed_ns(a, b));
       }
       if (due) {
         if (probes == kMaxProbes) requests.push_back(session.core().request());
@@ -498,6 +504,14 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     std::printf("[%s] %d probe%s: ticks right after a step p50 %.3f p99 %.3f us, the others p50 %.3f p99 %.3f us\n",
                 mc.name.c_str(), probes, probes == 1 ? "" : "s", after_step.p50_us, after_step.p99_us, other.p50_us,
                 other.p99_us);
+    const std::array<bench::Latency, 3> by_path = {bench::latency_of(tick_by_path[0]),
+                                                   bench::latency_of(tick_by_path[1]),
+                                                   bench::latency_of(tick_by_path[2])};
+    std::printf("[%s] %d probe%s by path (the slowest any probe took): walk %zu ticks p50 %.3f p99 %.3f us; "
+                "proxy %zu p50 %.3f p99 %.3f us; tree %zu p50 %.3f p99 %.3f us\n",
+                mc.name.c_str(), probes, probes == 1 ? "" : "s", by_path[0].samples, by_path[0].p50_us,
+                by_path[0].p99_us, by_path[1].samples, by_path[1].p50_us, by_path[1].p99_us, by_path[2].samples,
+                by_path[2].p50_us, by_path[2].p99_us);
     TickRow tr{mc.name, V, probes, bench::latency_of(tick_ns),
                static_cast<double>(contact_ticks) / (static_cast<double>(plan.ticks) * probes),
                static_cast<double>(walk_ticks) / (static_cast<double>(plan.ticks) * probes)};
@@ -512,6 +526,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["walk_fraction"] = tr.walk_fraction;
       r["after_step"] = latency_json(after_step);
       r["not_after_step"] = latency_json(other);
+      r["by_path"] = {{"walk", latency_json(by_path[0])}, {"proxy", latency_json(by_path[1])},
+                      {"tree", latency_json(by_path[2])}};
       res.records.push_back(r);
     }
 
