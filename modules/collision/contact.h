@@ -28,13 +28,17 @@ SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& pro
 
 /// Most triangles the in-contact walk visits before it gives up.
 inline constexpr int kMaxWalkSteps = 6;
-/// Where more than kFanValence triangles meet at a vertex, the walk's steps
-/// that turn around it (across consecutive edges sharing it) do not count
-/// towards kMaxWalkSteps but towards kMaxFanSteps: a probe sliding near a
-/// fan of hundreds of thin triangles crosses many of them in one tick, and
-/// without this the walk gave up and the tree's answer searched the whole
-/// fan (tens of microseconds).
-inline constexpr std::size_t kFanValence = 12;
+/// Where more than kFanValence triangles meet at a vertex (more than an
+/// even mesh's six), the walk's steps that turn around it (across
+/// consecutive edges sharing it) do not count towards kMaxWalkSteps but
+/// towards kMaxFanSteps: a probe sliding near a fan of hundreds of thin
+/// triangles crosses many of them in one tick, and without this the walk
+/// gave up and the tree's answer searched the whole fan (tens of
+/// microseconds). The same holds, on a smaller scale, where slivers double
+/// a vertex's triangles (12 around it): a probe swinging round such a vertex
+/// crosses six of them, and a walk that gave up there left the contact on
+/// track_contact's proxy, which costs about twice a walk per tick.
+inline constexpr std::size_t kFanValence = 6;
 inline constexpr int kMaxFanSteps = 64;
 
 /// The in-contact walk: solves the interpolated-normal equation on

@@ -608,6 +608,63 @@ TEST(ContactWalk, GoesAroundAHighValenceVertexWithTheAnswerOfBruteForce) {
   EXPECT_EQ(walked, queries);
 }
 
+// A flat grid (normals +z) whose every triangle is split in three at a point
+// 2% of the way from its first edge's midpoint to the opposite corner: a
+// sliver along that edge and two wide triangles. The grid's interior
+// vertices meet 12 triangles (two from each of their six), the new ones 3.
+mesh::SurfaceMesh sliver_plane(int n, double spacing) {
+  const mesh::SurfaceMesh g = mesh::make_plane(n, n, spacing);
+  mesh::SurfaceMesh out;
+  out.positions = g.positions;
+  for (const auto& t : g.triangles) {
+    const Vec3 mid = 0.5 * (g.positions[t[0]] + g.positions[t[1]]);
+    const auto p = static_cast<Index>(out.positions.size());
+    out.positions.push_back(mid + 0.02 * (g.positions[t[2]] - mid));
+    out.triangles.push_back({t[0], t[1], p});
+    out.triangles.push_back({t[1], t[2], p});
+    out.triangles.push_back({t[2], t[0], p});
+  }
+  mesh::finalize(out);
+  return out;
+}
+
+TEST(ContactWalk, GoesAroundAVertexOfSliversWithTheAnswerOfBruteForce) {
+  // Around a vertex where 12 triangles meet, half of them slivers, a probe
+  // that swings up to 170 degrees around it in one tick crosses up to six
+  // triangles turning about that vertex: the walk must answer (it gave up
+  // after kMaxWalkSteps of them before such turns had their own budget,
+  // and the tick fell back to the proxy or the tree), with brute force's
+  // point.
+  const mesh::SurfaceMesh m = sliver_plane(21, 0.001);
+  const Index centre = nearest_brute_force(m.positions, Vec3::Zero()).vertex;
+  ASSERT_EQ(m.vertex_triangles.row(centre).size(), 12u);
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::size_t queries = 0, wide_turns = 0;
+  for (int path = 0; path < 40; ++path) {
+    const double rho = 0.0001 + 0.0004 * u(rng);
+    double angle = 2 * std::numbers::pi * u(rng);
+    const double sign = u(rng) < 0.5 ? -1 : 1;
+    SurfacePoint last = full_query(m, m.positions[centre] + Vec3(rho * std::cos(angle), rho * std::sin(angle), -0.001));
+    ASSERT_TRUE(last.inside);
+    for (int tick = 0; tick < 20; ++tick) {
+      const double turn = sign * (0.3 + 2.67 * u(rng));  // rad: up to about 170 degrees
+      wide_turns += std::abs(turn) > 2.5;
+      angle += turn;
+      const Vec3 next = m.positions[centre] + Vec3(rho * std::cos(angle), rho * std::sin(angle), -0.001);
+      const SurfacePoint got = walk_surface_point(m, next, last.triangle);
+      const SurfacePoint want = full_query(m, next);
+      ++queries;
+      ASSERT_NE(got.triangle, kNoIndex) << "path " << path << " tick " << tick << " radius " << rho << " turn " << turn;
+      EXPECT_LE((got.point - want.point).norm(), 1e-12) << "path " << path << " tick " << tick;
+      EXPECT_NEAR(got.offset, want.offset, 1e-12);
+      last = got;
+    }
+  }
+  EXPECT_EQ(queries, 800u);
+  EXPECT_GT(wide_turns, 50u);
+}
+
 TEST(ContactWalk, LocateAroundAHighValenceVertexFindsTheTriangleUnderTheProbe) {
   Index centre = kNoIndex;
   const mesh::SurfaceMesh m = fan_plane(81, 0.001, 0.02, centre);
