@@ -130,12 +130,13 @@ TEST(Proxy, PressPastTheFocalDistanceKeepsTheContactPoint) {
     if (k <= 300) {
       walk += a.path == ContactPath::Walk;
       proxy += a.path == ContactPath::Proxy;
-      if (k == 1)
+      if (k == 1) {
         EXPECT_EQ(a.path, ContactPath::Tree);
-      else if (d < 0.499 * r)
+      } else if (d < 0.499 * r) {
         EXPECT_EQ(a.path, ContactPath::Walk) << k << " at " << d / r << " R";
-      else if (d > 0.501 * r)
+      } else if (d > 0.501 * r) {
         EXPECT_EQ(a.path, ContactPath::Proxy) << k << " at " << d / r << " R";
+      }
     } else {
       walk_back += a.path == ContactPath::Walk;
     }

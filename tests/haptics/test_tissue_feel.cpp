@@ -138,7 +138,9 @@ TEST(TissueFeel, SlidingAcrossATissueEdgeNeverJumps) {
     smp.sequence = n + 1;
     smp.time = t;
     s.step(t, in, out);
-    if (n > 10) ASSERT_TRUE(out[0].in_contact) << n;
+    if (n > 10) {
+      ASSERT_TRUE(out[0].in_contact) << n;
+    }
     const double f = out[0].normal_reaction;
     if (n > 20 && prev >= 0) worst = std::max(worst, std::abs(f - prev));
     prev = f;
@@ -191,7 +193,9 @@ TEST(LesionFeel, ContrastFallsMonotonicallyWithDepthAndVanishes) {
     EXPECT_LE(c, prev) << "centre depth " << z;
     prev = c;
     if (c == 0) vanished = true;
-    if (vanished) EXPECT_EQ(c, 0.0) << "stays zero beyond the reach, depth " << z;
+    if (vanished) {
+      EXPECT_EQ(c, 0.0) << "stays zero beyond the reach, depth " << z;
+    }
   }
   EXPECT_TRUE(vanished);
   // Beyond the reach exactly: top of the lesion farther than 2.5 sqrt(R d) below the tip.
@@ -349,7 +353,9 @@ TEST(PulseFeel, NothingMovesFarFromTheVessel) {
   const auto& st = s->surface().state().vertices;
   for (Index i = 0; i < m->vertex_count(); ++i) {
     const Vec3& p = m->positions[i];
-    if (std::abs(p.x()) > 0.016 && (p - Vec3(0.03, 0, 0)).norm() > 0.021) EXPECT_EQ(st[i].h, 0.0) << i;
+    if (std::abs(p.x()) > 0.016 && (p - Vec3(0.03, 0, 0)).norm() > 0.021) {
+      EXPECT_EQ(st[i].h, 0.0) << i;
+    }
   }
   // And near it the surface rises and falls.
   double top = 0;

@@ -60,7 +60,9 @@ Pressed press(std::shared_ptr<const mesh::SurfaceMesh> m, Index v, double depth,
     haptics::ProbeOutput out;
     haptics::haptic_tick(*p.surface, tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1), fp,
                          shape);
-    if (k > 100) EXPECT_TRUE(out.in_contact) << "tick " << k;
+    if (k > 100) {
+      EXPECT_TRUE(out.in_contact) << "tick " << k;
+    }
     p.surface->set_contacts(std::span(&out.contact, out.in_contact ? 1 : 0));
     p.surface->step(1e-3);
   }
