@@ -604,15 +604,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // The proxy before this query, and how far a walk's answer may be from it:
   // within half the focal distance the foot of the interpolated normal moves
   // at most twice as far as the probe, so an answer farther away is another
-  // foot (another sheet, a fold, another root beyond a focal point). The
-  // probe is reached from a point whose foot is the proxy in two ways: from
-  // the last probe when the last answer was a walk's (then on the proxy's
-  // normal line), and always from the nearest point of that line, at the
-  // probe's lateral distance from it. The larger of the two bounds lets a
-  // contact that the proxy held (a press past half the focal distance, a
-  // walk that gave up) return to the walk's answer while the probe slides
-  // on; with the motion alone the proxy, which trails the probe by up to the
-  // cone's radius, stayed out of reach until the probe stopped or let go.
+  // foot (another sheet, a fold, another root beyond a focal point).
   const Index proxy_triangle = cursor.triangle;
   Vec3 proxy_weights = cursor.barycentric;
   if (!proxy_weights.allFinite() || proxy_weights.minCoeff() < 0 || !(std::abs(proxy_weights.sum() - 1) <= 1e-9))
@@ -621,34 +613,9 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   const mesh::Triangle& pt = mesh.triangles[proxy_triangle];
   const Vec3 proxy_point = proxy_weights[0] * mesh.positions[pt[0]] + proxy_weights[1] * mesh.positions[pt[1]] +
                            proxy_weights[2] * mesh.positions[pt[2]];
-  // The proxy's interpolated normal, and the probe's depth along it and
-  // lateral offset from its line (m); made only when a walk's answer is
-  // beyond the motion's reach or the proxy is asked to move (a walk that
-  // follows the probe never needs them).
-  bool has_normal = false, made = false;
-  Vec3 n = Vec3::Zero(), lateral = Vec3::Zero();
-  double depth = 0, lateral_len = 0;
-  auto make_proxy_frame = [&] {
-    if (made) return;
-    made = true;
-    const Vec3 pn = proxy_weights[0] * mesh.normals[pt[0]] + proxy_weights[1] * mesh.normals[pt[1]] +
-                    proxy_weights[2] * mesh.normals[pt[2]];
-    const double pn_len = pn.norm();
-    has_normal = pn_len > 0 && std::isfinite(pn_len);
-    if (!has_normal) return;
-    n = pn / pn_len;
-    const Vec3 rel = probe - proxy_point;
-    depth = -rel.dot(n);
-    lateral = rel + depth * n;
-    lateral_len = lateral.norm();
-  };
-  const double motion_reach = 2 * (probe - last_probe).norm() + kProxyTolerance;
+  const double reach = 2 * (probe - last_probe).norm() + kProxyTolerance;
   auto continuous = [&](const SurfacePoint& sp) {
-    if (sp.triangle == kNoIndex) return false;
-    const double dist = (sp.point - proxy_point).norm();
-    if (dist <= motion_reach) return true;
-    make_proxy_frame();
-    return dist <= 2 * lateral_len + kProxyTolerance;
+    return sp.triangle != kNoIndex && (sp.point - proxy_point).norm() <= reach;
   };
   ContactAnswer ans;
   // The walk from the last triangle, as query_contact's.
@@ -664,9 +631,16 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // times as far as the probe moved across the normal this tick (so it
   // cannot run away where the probe is deeper than the centre of
   // curvature), never leaving the surface.
-  make_proxy_frame();
+  const Vec3 pn = proxy_weights[0] * mesh.normals[pt[0]] + proxy_weights[1] * mesh.normals[pt[1]] +
+                  proxy_weights[2] * mesh.normals[pt[2]];
+  const double pn_len = pn.norm();
   Vec3 move = Vec3::Zero();
-  if (has_normal) {
+  if (pn_len > 0 && std::isfinite(pn_len)) {
+    const Vec3 n = pn / pn_len;
+    const Vec3 rel = probe - proxy_point;
+    const double depth = -rel.dot(n);
+    const Vec3 lateral = rel + depth * n;
+    const double lateral_len = lateral.norm();
     const double excess = lateral_len - kProxyCone * std::max(depth, 0.0);
     if (excess > 0 && lateral_len > 0) {
       const Vec3 motion = probe - last_probe;

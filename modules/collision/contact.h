@@ -168,14 +168,10 @@ inline constexpr double kProxyChase = 2.0;
 /// leaves the surface and the tree is never asked, so the contact cannot jump
 /// through the volume to another sheet or fold:
 ///  1. the in-contact walk from the last triangle as in query_contact (path
-///     Walk), taken only when its point is within 2 max(|probe motion|,
-///     lateral) + kProxyTolerance of the proxy, where lateral (m) is the
-///     probe's distance from the proxy's normal line (within half the focal
-///     distance the foot of the interpolated normal moves at most twice as
-///     far as the probe, from the last probe or from that line; a farther
-///     answer is another foot: another sheet, a fold, another root). So a
-///     contact the proxy held returns to the walk once the probe is back
-///     within half the focal distance, even while it slides;
+///     Walk), taken only when its point is within 2 |probe motion| +
+///     kProxyTolerance of the proxy (within half the focal distance the foot
+///     of the interpolated normal moves at most twice as far as the probe; a
+///     farther answer is another foot: another sheet, a fold, another root);
 ///  2. otherwise the proxy stays while the probe lies within the cone of
 ///     half angle atan(kProxyCone) around the proxy's inward normal, and
 ///     beyond it slides along the surface (slide_surface_point) towards the

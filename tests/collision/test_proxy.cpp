@@ -146,64 +146,6 @@ TEST(Proxy, PressPastTheFocalDistanceKeepsTheContactPoint) {
   EXPECT_GT(walk_back, 10);
 }
 
-TEST(Proxy, ASlidingContactReturnsToTheWalkOnceBackWithinReach) {
-  // Radial normals on a 50 mm sphere: the foot of the interpolated normal
-  // through a probe is where the ray from the centre through the probe meets
-  // the surface. A probe pressed to 0.7 R along a radius (the proxy holds,
-  // the walk declines past R/2) slides on at that depth (the proxy trails
-  // it, up to 17 mm on the surface here), rises to 0.2 R and slides on: once
-  // the proxy has closed to within the walk's few triangles of the probe's
-  // foot, the walk answers again, on the ray, and keeps answering. (Until
-  // the reach counted the probe's distance from the proxy's normal line, the
-  // proxy stayed out of the walk's reach, and this contact stayed on the
-  // proxy until the probe let go.)
-  const double r = 0.05;
-  auto m = mesh::make_sphere(20000, r);
-  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
-  const VertexTree tree(m.positions);
-  const Vec3 start = Vec3(0.3, -0.5, 0.8).normalized();
-  const Vec3 axis = start.cross(Vec3::UnitX()).normalized();
-  ContactCursor cursor;
-  bool in = false;
-  int proxy_deep = 0, first_walk_back = -1, not_walk_after = 0;
-  for (int k = 0; k <= 500; ++k) {
-    // Down to 0.7 R in 100 ticks, 150 ticks sliding there, up to 0.2 R in
-    // 100 ticks and 150 at 0.2 R, sliding 0.1 mm a tick from tick 100 on.
-    double d = 0;
-    if (k <= 100) {
-      d = -1e-4 + (0.7 * r + 1e-4) * k / 100;
-    } else if (k <= 250) {
-      d = 0.7 * r;
-    } else if (k <= 350) {
-      d = 0.7 * r - 0.5 * r * (k - 250) / 100;
-    } else {
-      d = 0.2 * r;
-    }
-    const double angle = k <= 100 ? 0.0 : 0.002 * (k - 100);
-    const Vec3 u = Eigen::AngleAxisd(angle, axis) * start;
-    const Vec3 probe = (r - d) * u;
-    const ContactAnswer a = track_contact(m, tree, probe, cursor, in);
-    ASSERT_NE(a.surface.triangle, kNoIndex) << k;
-    in = a.surface.offset < 0;
-    if (k == 0) continue;
-    ASSERT_TRUE(in) << k;
-    if (k > 150 && k <= 250) proxy_deep += a.path == ContactPath::Proxy;
-    // Back within half the focal distance from tick 290 on.
-    if (k < 290) continue;
-    if (a.path == ContactPath::Walk) {
-      if (first_walk_back < 0) first_walk_back = k;
-      EXPECT_LE((a.surface.point.normalized() - u).norm(), 1e-12) << k;
-      EXPECT_NEAR(-a.surface.offset, (a.surface.point - probe).norm(), 1e-12) << k;
-    } else if (first_walk_back >= 0) {
-      ++not_walk_after;
-    }
-  }
-  EXPECT_EQ(proxy_deep, 100);  // the deep part is the proxy's
-  EXPECT_GT(first_walk_back, 0) << "the walk never answered again";
-  EXPECT_LT(first_walk_back, 450);
-  EXPECT_EQ(not_walk_after, 0);
-}
-
 TEST(Proxy, NeverCrossesToTheOtherSide) {
   // A 5 mm sphere (area-weighted normals) pressed 30 mm down from its top,
   // through it and out below: the contact stays on the top (normal up, depth
