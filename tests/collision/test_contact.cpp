@@ -573,6 +573,29 @@ mesh::SurfaceMesh fan_plane(int n, double spacing, double radius, Index& centre)
   return out;
 }
 
+// The probe 1 mm below the plane z = 0 at distance rho (m) and angle (rad)
+// round vertex c.
+Vec3 round_vertex(const mesh::SurfaceMesh& m, Index c, double rho, double angle) {
+  return m.positions[c] + Vec3(rho * std::cos(angle), rho * std::sin(angle), -0.001);
+}
+
+// One tick of a probe sliding round a vertex: the walk from last's triangle
+// to the probe must answer, with brute force's point and offset
+// (full_query). Returns the walk's answer; its triangle is kNoIndex when the
+// walk declined, which has failed the test.
+SurfacePoint walk_like_brute_force(const mesh::SurfaceMesh& m, const Vec3& probe, const SurfacePoint& last,
+                                   const std::string& where) {
+  const SurfacePoint got = walk_surface_point(m, probe, last.triangle);
+  if (got.triangle == kNoIndex) {
+    ADD_FAILURE() << "the walk declined: " << where;
+    return got;
+  }
+  const SurfacePoint want = full_query(m, probe);
+  EXPECT_LE((got.point - want.point).norm(), 1e-12) << where;
+  EXPECT_NEAR(got.offset, want.offset, 1e-12) << where;
+  return got;
+}
+
 TEST(ContactWalk, GoesAroundAHighValenceVertexWithTheAnswerOfBruteForce) {
   Index centre = kNoIndex;
   const mesh::SurfaceMesh m = fan_plane(81, 0.001, 0.02, centre);
@@ -588,21 +611,16 @@ TEST(ContactWalk, GoesAroundAHighValenceVertexWithTheAnswerOfBruteForce) {
     const double rho = 0.0005 + 0.012 * u(rng);
     double angle = 2 * std::numbers::pi * u(rng);
     const double turn = (u(rng) < 0.5 ? -1 : 1) * (0.02 + 0.25 * u(rng));  // rad per tick: up to ~25 fan triangles
-    Vec3 probe(rho * std::cos(angle), rho * std::sin(angle), -0.001);
-    probe += m.positions[centre];
-    SurfacePoint last = full_query(m, probe);
+    SurfacePoint last = full_query(m, round_vertex(m, centre, rho, angle));
     ASSERT_TRUE(last.inside);
     for (int tick = 0; tick < 30; ++tick) {
       angle += turn;
-      const Vec3 next = m.positions[centre] + Vec3(rho * std::cos(angle), rho * std::sin(angle), -0.001);
-      const SurfacePoint got = walk_surface_point(m, next, last.triangle);
-      const SurfacePoint want = full_query(m, next);
       ++queries;
-      ASSERT_NE(got.triangle, kNoIndex) << "path " << path << " tick " << tick << " radius " << rho;
+      last = walk_like_brute_force(m, round_vertex(m, centre, rho, angle), last,
+                                   "path " + std::to_string(path) + " tick " + std::to_string(tick) + " radius " +
+                                       std::to_string(rho));
+      ASSERT_NE(last.triangle, kNoIndex);
       ++walked;
-      EXPECT_LE((got.point - want.point).norm(), 1e-12) << "path " << path << " tick " << tick;
-      EXPECT_NEAR(got.offset, want.offset, 1e-12);
-      last = got;
     }
   }
   EXPECT_EQ(walked, queries);
@@ -645,20 +663,17 @@ TEST(ContactWalk, GoesAroundAVertexOfSliversWithTheAnswerOfBruteForce) {
     const double rho = 0.0001 + 0.0004 * u(rng);
     double angle = 2 * std::numbers::pi * u(rng);
     const double sign = u(rng) < 0.5 ? -1 : 1;
-    SurfacePoint last = full_query(m, m.positions[centre] + Vec3(rho * std::cos(angle), rho * std::sin(angle), -0.001));
+    SurfacePoint last = full_query(m, round_vertex(m, centre, rho, angle));
     ASSERT_TRUE(last.inside);
     for (int tick = 0; tick < 20; ++tick) {
       const double turn = sign * (0.3 + 2.67 * u(rng));  // rad: up to about 170 degrees
       wide_turns += std::abs(turn) > 2.5;
       angle += turn;
-      const Vec3 next = m.positions[centre] + Vec3(rho * std::cos(angle), rho * std::sin(angle), -0.001);
-      const SurfacePoint got = walk_surface_point(m, next, last.triangle);
-      const SurfacePoint want = full_query(m, next);
       ++queries;
-      ASSERT_NE(got.triangle, kNoIndex) << "path " << path << " tick " << tick << " radius " << rho << " turn " << turn;
-      EXPECT_LE((got.point - want.point).norm(), 1e-12) << "path " << path << " tick " << tick;
-      EXPECT_NEAR(got.offset, want.offset, 1e-12);
-      last = got;
+      last = walk_like_brute_force(m, round_vertex(m, centre, rho, angle), last,
+                                   "path " + std::to_string(path) + " tick " + std::to_string(tick) + " radius " +
+                                       std::to_string(rho) + " turn " + std::to_string(turn));
+      ASSERT_NE(last.triangle, kNoIndex);
     }
   }
   EXPECT_EQ(queries, 800u);
