@@ -476,16 +476,21 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       const bool after_step = stepped;
       stepped = due;
       if (k >= plan.warmup) {
-        tick_ns.push_back(elapsed_ns(a, b));
-        (after_step ? tick_after_step_ns : tick_other_ns).push_back(elapsed_ns(a, b));
+        const double ns = elapsed_ns(a, b);
+        tick_ns.push_back(ns);
+        (after_step ? tick_after_step_ns : tick_other_ns).push_back(ns);
         int slowest = 0;  // 0 walk, 1 proxy, 2 tree
         for (int p = 0; p < probes; ++p) {
+          const auto path = static_cast<collision::ContactPath>(results[p].path);
           contact_ticks += results[p].in_contact;
-          walk_ticks += results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Walk);
-          if (results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Proxy)) slowest = std::max(slowest, 1);
-          if (results[p].path == static_cast<std::uint8_t>(collision::ContactPath::Tree)) slowest = 2;
+          walk_ticks += path == collision::ContactPath::Walk;
+          if (path == collision::ContactPath::Tree) {
+            slowest = 2;
+          } else if (path == collision::ContactPath::Proxy) {
+            slowest = std::max(slowest, 1);
+          }
         }
-        tick_by_path[slowest].push_back(elapsed_ns(a, b));
+        tick_by_path[slowest].push_back(ns);
       }
       if (due) {
         if (probes == kMaxProbes) requests.push_back(session.core().request());
