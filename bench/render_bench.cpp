@@ -9,7 +9,12 @@
 // All are measured frame by frame in rotating order (same core
 // surface, same contacts), so load from other processes hits them alike.
 // Bytes are counted at GLEW's glBufferData/glBufferSubData (all of VTK's
-// uploads and ours, by target). Multisampling is off in all cases.
+// uploads and ours, by target); calls/fr is our path's glBufferSubData
+// calls (one per dirty range). "gpu ms" is the GPU's own time for the
+// frame's commands (a GL_TIME_ELAPSED query round render()), so frame ms
+// less gpu ms is the CPU's share; a software renderer (llvmpipe) draws at
+// the glFinish after the query and shows about 0 there. Multisampling is
+// off in all cases.
 // Targets (issue 3): uploads <= 16 bytes x changed vertices, no index-buffer
 // upload, frame time within 10% of the static render.
 
@@ -22,7 +27,7 @@
 #include "render/surface_view.h"
 #include "upload_counter.h"  // tests/render: a test aid
 
-#include <GL/gl.h>
+#include <GL/glew.h>
 #include <vtkRenderWindow.h>
 #include <vtkActor.h>
 #include <vtkRenderer.h>
@@ -73,6 +78,8 @@ struct CaseResult {
   double upload_ms_median = 0;         // update() + the first part of the frame (CPU)
   double bytes_per_frame = 0;          // all buffer uploads
   double index_bytes_per_frame = 0;
+  double upload_calls_per_frame = 0;   // glBufferSubData calls of our path (one per dirty range)
+  double gpu_ms_median = -1;           // GL_TIME_ELAPSED of the frame's commands (-1: no timer query)
   double changed_vertices_per_frame = 0;
   double step_ms_per_frame = 0;        // the core's deformation for the frame (not in frame time)
 };
@@ -153,10 +160,15 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
   }
 
   struct Samples {
-    std::vector<double> frame_ms, upload_ms, bytes, index_bytes;
+    std::vector<double> frame_ms, upload_ms, bytes, index_bytes, calls, gpu_ms;
   } samples[kMethods];
   std::vector<double> changed, step_ms;
   GlUploadCounter counter;
+  // The GPU's own time for each frame's commands (uploads included), where
+  // the driver has timer queries (GL 3.3, ARB_timer_query): the frame time
+  // less this is the CPU's share.
+  GLuint query = 0;
+  if (GLEW_VERSION_3_3 || GLEW_ARB_timer_query) glGenQueries(1, &query);
   double t = 0;
   for (int f = 0; f < o.warmup + o.frames; ++f) {
     // The core: move the contacts and deform for one frame's time.
@@ -187,20 +199,28 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
       const int m = (f + q) % kMethods;
       for (int k = 0; k < kMethods; ++k) views[k]->actor()->SetVisibility(k == m);
       counter.reset();
+      const std::uint64_t calls0 = views[m]->stats().ranges;
       const auto f0 = Clock::now();
       if (m != 0) views[m]->update(surface.stream(), ranges);
       const auto f1 = Clock::now();
+      if (query) glBeginQuery(GL_TIME_ELAPSED, query);
       scene.window().render();
+      if (query) glEndQuery(GL_TIME_ELAPSED);
       glFinish();
       const auto f2 = Clock::now();
+      GLuint64 gpu_ns = 0;
+      if (query) glGetQueryObjectui64v(query, GL_QUERY_RESULT, &gpu_ns);
       if (f < o.warmup) continue;
       const auto c = counter.counts();
       samples[m].frame_ms.push_back(std::chrono::duration<double, std::milli>(f2 - f0).count());
       samples[m].upload_ms.push_back(std::chrono::duration<double, std::milli>(f1 - f0).count());
       samples[m].bytes.push_back(static_cast<double>(c.total_bytes()));
       samples[m].index_bytes.push_back(static_cast<double>(c.index_bytes));
+      samples[m].calls.push_back(static_cast<double>(views[m]->stats().ranges - calls0));
+      if (query) samples[m].gpu_ms.push_back(static_cast<double>(gpu_ns) * 1e-6);
     }
   }
+  if (query) glDeleteQueries(1, &query);
   scene.renderer()->RemoveAllViewProps();
 
   std::vector<CaseResult> rs;
@@ -215,6 +235,8 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
     r.upload_ms_median = median(samples[m].upload_ms);
     r.bytes_per_frame = mean(samples[m].bytes);
     r.index_bytes_per_frame = mean(samples[m].index_bytes);
+    r.upload_calls_per_frame = mean(samples[m].calls);
+    if (query) r.gpu_ms_median = median(samples[m].gpu_ms);
     r.changed_vertices_per_frame = mean(changed);
     r.step_ms_per_frame = mean(step_ms);
     rs.push_back(r);
@@ -304,8 +326,8 @@ int main(int argc, char** argv) {
       for (std::size_t t : o.triangles) sizes.push_back(t / 2 + 2);  // a closed sphere: F = 2V - 4
     }
     std::vector<CaseResult> all;
-    std::printf("\n%-10s %8s %-8s %10s %10s %12s %12s %10s %10s\n", "triangles", "contacts", "method", "frame ms",
-                "upload ms", "bytes/frame", "index B/fr", "changed V", "step ms");
+    std::printf("\n%-10s %8s %-8s %10s %8s %10s %12s %12s %10s %9s %10s\n", "triangles", "contacts", "method",
+                "frame ms", "gpu ms", "upload ms", "bytes/frame", "index B/fr", "changed V", "calls/fr", "step ms");
     for (std::size_t target : sizes) {
       auto mesh = std::make_shared<const palpa::mesh::SurfaceMesh>(palpa::mesh::make_sphere(target, kRadius));
       palpa::collision::VertexTree tree(mesh->positions);
@@ -313,9 +335,10 @@ int main(int argc, char** argv) {
         std::vector<CaseResult> rs = run_config(scene, mesh, tree, contacts, o);
         for (CaseResult& r : rs) {
           r.mesh_name = "sphere" + std::to_string(mesh->triangle_count());
-          std::printf("%-10zu %8d %-8s %10.2f %10.3f %12.0f %12.0f %10.0f %10.2f\n", r.triangles, r.contacts,
-                      r.method.c_str(), r.frame_ms_median, r.upload_ms_median, r.bytes_per_frame,
-                      r.index_bytes_per_frame, r.changed_vertices_per_frame, r.step_ms_per_frame);
+          std::printf("%-10zu %8d %-8s %10.2f %8.2f %10.3f %12.0f %12.0f %10.0f %9.0f %10.2f\n", r.triangles,
+                      r.contacts, r.method.c_str(), r.frame_ms_median, r.gpu_ms_median, r.upload_ms_median,
+                      r.bytes_per_frame, r.index_bytes_per_frame, r.changed_vertices_per_frame,
+                      r.upload_calls_per_frame, r.step_ms_per_frame);
           std::fflush(stdout);
         }
         // Ratios against the targets.
@@ -345,6 +368,8 @@ int main(int argc, char** argv) {
             << "\", \"frame_ms_median\": " << r.frame_ms_median << ", \"frame_ms_mean\": " << r.frame_ms_mean
             << ", \"upload_ms_median\": " << r.upload_ms_median << ", \"bytes_per_frame\": " << r.bytes_per_frame
             << ", \"index_bytes_per_frame\": " << r.index_bytes_per_frame
+            << ", \"upload_calls_per_frame\": " << r.upload_calls_per_frame
+            << ", \"gpu_ms_median\": " << r.gpu_ms_median
             << ", \"changed_vertices_per_frame\": " << r.changed_vertices_per_frame
             << ", \"step_ms_per_frame\": " << r.step_ms_per_frame << "}" << (i + 1 < all.size() ? "," : "") << "\n";
       }
