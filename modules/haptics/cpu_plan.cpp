@@ -2,6 +2,8 @@
 
 #include <pthread.h>
 #include <sched.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -9,6 +11,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <sstream>
 
 namespace palpa::haptics {
 
@@ -139,5 +143,70 @@ CpuPlan reserve_haptic_cpu() {
 }
 
 int reserved_haptic_cpu() { return g_reserved.load(); }
+
+namespace {
+
+std::string read_text(const char* path) {
+  std::ifstream f(path);
+  std::ostringstream out;
+  out << f.rdbuf();
+  return f ? out.str() : std::string();
+}
+
+}  // namespace
+
+std::string cgroup_of_cpu_controller(const std::string& text) {
+  std::istringstream in(text);
+  std::string line, v1;
+  while (std::getline(in, line)) {
+    // hierarchy-ID:controller-list:path
+    const std::size_t a = line.find(':');
+    const std::size_t b = a == std::string::npos ? std::string::npos : line.find(':', a + 1);
+    if (b == std::string::npos) continue;
+    const std::string id = line.substr(0, a), controllers = line.substr(a + 1, b - a - 1), path = line.substr(b + 1);
+    if (id == "0" && controllers.empty()) return path;
+    std::istringstream list(controllers);
+    for (std::string c; std::getline(list, c, ',');)
+      if (c == "cpu" && v1.empty()) v1 = path;
+  }
+  return v1;
+}
+
+bool has_cap_sys_nice(const std::string& text) {
+  const std::size_t p = text.find("CapEff:");
+  if (p == std::string::npos) return false;
+  const unsigned long long caps = std::strtoull(text.c_str() + p + 7, nullptr, 16);
+  return (caps >> 23) & 1u;  // CAP_SYS_NICE
+}
+
+RealtimeContext read_realtime_context() {
+  RealtimeContext c;
+  c.root = geteuid() == 0;
+  c.cap_sys_nice = has_cap_sys_nice(read_text("/proc/self/status"));
+  rlimit limit{};
+  if (getrlimit(RLIMIT_RTPRIO, &limit) == 0)
+    c.rtprio_limit = limit.rlim_cur == RLIM_INFINITY ? -1 : static_cast<long long>(limit.rlim_cur);
+  c.cgroup = cgroup_of_cpu_controller(read_text("/proc/self/cgroup"));
+  const std::string runtime = read_text("/proc/sys/kernel/sched_rt_runtime_us");
+  if (!runtime.empty()) c.rt_runtime_us = std::atoll(runtime.c_str());
+  return c;
+}
+
+std::string realtime_refused_advice(int error, int priority, const RealtimeContext& c) {
+  if (error != EPERM) return "the system refused it; see sched_setscheduler(2) for " + std::string(std::strerror(error));
+  const bool allowed = c.root || c.cap_sys_nice || c.rtprio_limit < 0 || c.rtprio_limit >= priority;
+  if (!allowed)
+    return "grant CAP_SYS_NICE or an rtprio limit of at least " + std::to_string(priority) +
+           " (ulimit -r, /etc/security/limits.conf) to the user running Palpa";
+  if (c.rt_runtime_us == 0)
+    return "the process may use it, but the kernel gives real-time threads no CPU time "
+           "(kernel.sched_rt_runtime_us = 0); set it to 950000, the default";
+  if (!c.cgroup.empty() && c.cgroup != "/")
+    return "the process may use it, but its control group " + c.cgroup +
+           " has no real-time CPU time (a kernel with RT group scheduling gives child groups none); run Palpa "
+           "in the root group (as root: echo PID > /sys/fs/cgroup/cgroup.procs) or give its group a "
+           "cpu.rt_runtime_us";
+  return "the process may use it, and the kernel refused it anyway (a container or a security module?)";
+}
 
 }  // namespace palpa::haptics

@@ -238,6 +238,7 @@ void HapticLoop::start() {
   if (tick_ == 0) meta_[0].time = meta_[1].time = t0;
   start_time_.store(t0);
   deform_start_time_.store(t0);
+  if (config_.realtime) realtime_context_ = read_realtime_context();  // file reads: not on the haptic thread
   running_.store(true);
   deform_thread_ = std::thread([this] { deform_main(); });
   haptic_thread_ = std::thread([this] { haptic_main(); });
@@ -635,8 +636,8 @@ void HapticLoop::haptic_main() {
       realtime_notice_ = "haptic thread runs with SCHED_FIFO priority " + std::to_string(config_.realtime_priority);
     } else {
       realtime_notice_ = std::string("real-time priority not available (") + std::strerror(rc) +
-                         "): the haptic thread runs at normal priority and may jitter; grant CAP_SYS_NICE or an "
-                         "rtprio limit (ulimit -r) to the user running Palpa";
+                         "): the haptic thread runs at normal priority and may jitter; " +
+                         realtime_refused_advice(rc, config_.realtime_priority, realtime_context_);
     }
   } else {
     realtime_notice_ = "real-time priority not requested (realtime = false)";

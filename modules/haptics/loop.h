@@ -38,6 +38,7 @@
 #include "core/surface_mailbox.h"
 #include "core/triple_buffer.h"
 #include "devices/device.h"
+#include "haptics/cpu_plan.h"
 #include "haptics/loop_core.h"
 #include "haptics/loop_stats.h"
 #include "haptics/session.h"
@@ -350,6 +351,7 @@ class HapticLoop {
   std::atomic<double> start_time_{0}, stop_time_{0}, last_miss_time_{-1e9}, deform_start_time_{0};
   std::atomic<bool> realtime_{false};
   std::string realtime_notice_;  // written before haptic_ready_, read after
+  RealtimeContext realtime_context_;  // read by start() when realtime is asked for
   std::uint32_t static_warnings_ = 0;
 };
 

@@ -9,7 +9,9 @@
 #include <pthread.h>
 #include <sched.h>
 
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 #include <thread>
 #include <vector>
@@ -113,6 +115,73 @@ TEST(CpuPlan, ReservingMovesThisThreadAndLaterThreadsOffTheHapticCpu) {
   const CpuPlan again = reserve_haptic_cpu();
   EXPECT_EQ(again.haptic_cpu, p.haptic_cpu);
   EXPECT_EQ(affinity_of_this_thread(), p.others);
+}
+
+TEST(RealtimeRefused, FindsTheCpuControllersGroup) {
+  // cgroup v2 (one "0::" line), as on the GPU machine that refused root.
+  EXPECT_EQ(cgroup_of_cpu_controller("0::/process_api/512b2cf5\n"), "/process_api/512b2cf5");
+  EXPECT_EQ(cgroup_of_cpu_controller("0::/\n"), "/");
+  // cgroup v1: the line whose controller list holds "cpu" (not "cpuset").
+  EXPECT_EQ(cgroup_of_cpu_controller("5:cpuset:/a\n4:cpu,cpuacct:/user.slice\n1:name=systemd:/b\n"), "/user.slice");
+  // Hybrid: v2's line wins.
+  EXPECT_EQ(cgroup_of_cpu_controller("4:cpu,cpuacct:/v1\n0::/v2\n"), "/v2");
+  EXPECT_EQ(cgroup_of_cpu_controller(""), "");
+  EXPECT_EQ(cgroup_of_cpu_controller("garbage\n"), "");
+}
+
+TEST(RealtimeRefused, ReadsCapSysNiceFromTheEffectiveSet) {
+  // Bit 23 is CAP_SYS_NICE; only CapEff counts (CapPrm may hold it unused).
+  EXPECT_TRUE(has_cap_sys_nice("Name:\tpalpa\nCapPrm:\t0000000000000000\nCapEff:\t0000000000800000\n"));
+  EXPECT_FALSE(has_cap_sys_nice("CapPrm:\t0000000000800000\nCapEff:\t00000000007fffff\n"));
+  EXPECT_TRUE(has_cap_sys_nice("CapEff:\t000001ffffffffff\n"));  // root's full set
+  EXPECT_FALSE(has_cap_sys_nice("Name:\tpalpa\n"));
+}
+
+TEST(RealtimeRefused, SaysWhatStandsInTheWay) {
+  RealtimeContext user;  // no right at all
+  user.cgroup = "/user.slice/user-1000.slice";
+  user.rt_runtime_us = 950000;
+  const std::string no_right = realtime_refused_advice(EPERM, 80, user);
+  EXPECT_NE(no_right.find("CAP_SYS_NICE"), std::string::npos) << no_right;
+  EXPECT_NE(no_right.find("at least 80"), std::string::npos) << no_right;
+
+  // An rtprio limit below the priority asked for is no right either.
+  RealtimeContext low = user;
+  low.rtprio_limit = 50;
+  EXPECT_NE(realtime_refused_advice(EPERM, 80, low).find("CAP_SYS_NICE"), std::string::npos);
+
+  // Root in a child group of a kernel with RT group scheduling (the H200
+  // machine: refused, then allowed once moved to the root group).
+  RealtimeContext boxed;
+  boxed.root = true;
+  boxed.cgroup = "/process_api/512b2cf5";
+  boxed.rt_runtime_us = 950000;
+  for (RealtimeContext c : {boxed, [&] {
+                              RealtimeContext l = user;
+                              l.rtprio_limit = 99;
+                              l.cgroup = boxed.cgroup;
+                              return l;
+                            }()}) {
+    const std::string a = realtime_refused_advice(EPERM, 80, c);
+    EXPECT_NE(a.find("/process_api/512b2cf5"), std::string::npos) << a;
+    EXPECT_NE(a.find("root group"), std::string::npos) << a;
+    EXPECT_EQ(a.find("CAP_SYS_NICE"), std::string::npos) << a;
+  }
+
+  // No real-time time for anyone.
+  RealtimeContext none = boxed;
+  none.rt_runtime_us = 0;
+  EXPECT_NE(realtime_refused_advice(EPERM, 80, none).find("sched_rt_runtime_us = 0"), std::string::npos);
+
+  // Allowed, in the root group, with time, and still refused.
+  RealtimeContext odd = boxed;
+  odd.cgroup = "/";
+  const std::string a = realtime_refused_advice(EPERM, 80, odd);
+  EXPECT_EQ(a.find("root group"), std::string::npos) << a;
+  EXPECT_NE(a.find("refused it anyway"), std::string::npos) << a;
+
+  // Another error is named as it is.
+  EXPECT_NE(realtime_refused_advice(EINVAL, 80, boxed).find(std::strerror(EINVAL)), std::string::npos);
 }
 
 }  // namespace
