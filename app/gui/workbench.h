@@ -113,6 +113,9 @@ struct Probe {
 
 class Workbench {
  public:
+  /// The live loop's haptic tick rate, Hz.
+  static constexpr double kHapticRateHz = 1000;
+
   /// Loads plugins through `loader` (default search path when omitted).
   Workbench();
   explicit Workbench(devices::PluginLoader loader);

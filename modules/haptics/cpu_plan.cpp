@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -190,6 +191,38 @@ RealtimeContext read_realtime_context() {
   const std::string runtime = read_text("/proc/sys/kernel/sched_rt_runtime_us");
   if (!runtime.empty()) c.rt_runtime_us = std::atoll(runtime.c_str());
   return c;
+}
+
+SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env) {
+  SpinPlan p;
+  const double period_us = 1e6 / rate_hz;
+  const double fallback = haptic_cpu >= 0 ? 0.4 * period_us : 0.0;
+  char text[200];
+  if (env == "off") {
+    p.note = "the haptic thread sleeps to each tick (PALPA_HAPTIC_SPIN=off)";
+    return p;
+  }
+  if (!env.empty()) {
+    char* end = nullptr;
+    const double us = std::strtod(env.c_str(), &end);
+    if (end != env.c_str() && *end == '\0' && std::isfinite(us) && us >= 0) {
+      p.spin_us = std::min(us, 0.5 * period_us);
+      std::snprintf(text, sizeof text, "the haptic thread spins the last %.0f us of each %.0f us period (PALPA_HAPTIC_SPIN=%s%s)",
+                    p.spin_us, period_us, env.c_str(), p.spin_us < us ? ", capped at half the period" : "");
+      p.note = text;
+      return p;
+    }
+    p.note = "PALPA_HAPTIC_SPIN='" + env + "' is neither 'off' nor a number of microseconds >= 0; using the default: ";
+  }
+  p.spin_us = fallback;
+  if (p.spin_us > 0) {
+    std::snprintf(text, sizeof text, "the haptic thread spins the last %.0f us of each %.0f us period on CPU %d",
+                  p.spin_us, period_us, haptic_cpu);
+  } else {
+    std::snprintf(text, sizeof text, "the haptic thread sleeps to each tick (no CPU kept for it)");
+  }
+  p.note += text;
+  return p;
 }
 
 std::string realtime_refused_advice(int error, int priority, const RealtimeContext& c) {

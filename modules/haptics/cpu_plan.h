@@ -48,6 +48,26 @@ CpuPlan plan_cpus(const std::vector<int>& allowed, const std::vector<unsigned lo
 /// number; empty for an empty text.
 std::vector<unsigned long long> device_interrupts_per_cpu(const std::string& proc_interrupts_text);
 
+/// The busy-wait before each tick (LoopConfig::spin_us) that a haptic thread
+/// with a CPU of its own should use.
+struct SpinPlan {
+  double spin_us = 0;  ///< us before each tick's start (0: sleep to the start)
+  std::string note;    ///< one line: what was chosen and why, or what was wrong with `env`
+};
+
+/// With a CPU kept for the haptic thread (haptic_cpu >= 0), 40% of the
+/// period: the thread wakes that early and spins to the tick's start, so
+/// the start no longer waits for the CPU to come out of idle. On the
+/// 16-CPU GPU machine that took missed deadlines from 0.015-0.058% to
+/// 0-0.007% and the start latency's p99 from 47-59 us to under 1 us;
+/// on a 2-core VM it about halved them (docs/PERFORMANCE.md, round 7).
+/// Without a kept CPU, 0 (the spin would take time from other threads).
+/// `env` is PALPA_HAPTIC_SPIN's value: "" (the default above), "off" (0),
+/// or a number of us, capped at half the period (a SCHED_FIFO thread that
+/// never sleeps is throttled by the kernel); anything else keeps the
+/// default and says so in the note. `rate_hz`: the haptic rate, Hz.
+SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env);
+
 /// What decides whether this process may run a thread at SCHED_FIFO, read
 /// from /proc by read_realtime_context().
 struct RealtimeContext {

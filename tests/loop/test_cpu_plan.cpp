@@ -117,6 +117,34 @@ TEST(CpuPlan, ReservingMovesThisThreadAndLaterThreadsOffTheHapticCpu) {
   EXPECT_EQ(affinity_of_this_thread(), p.others);
 }
 
+TEST(HapticSpin, SpinsFortyPercentOfThePeriodOnlyOnAKeptCpu) {
+  // 1 kHz: 1000 us period; 4 kHz: 250 us.
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "").spin_us, 400);
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(4000, 0, "").spin_us, 100);
+  EXPECT_NE(plan_haptic_spin(1000, 1, "").note.find("CPU 1"), std::string::npos);
+  // No CPU of its own: spinning would take time from the other threads.
+  const SpinPlan shared = plan_haptic_spin(1000, -1, "");
+  EXPECT_EQ(shared.spin_us, 0);
+  EXPECT_NE(shared.note.find("no CPU kept"), std::string::npos) << shared.note;
+}
+
+TEST(HapticSpin, TheEnvironmentTurnsItOffOrSetsItWithinHalfAPeriod) {
+  EXPECT_EQ(plan_haptic_spin(1000, 1, "off").spin_us, 0);
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "150").spin_us, 150);
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, -1, "150").spin_us, 150);  // asked for: also without a kept CPU
+  EXPECT_EQ(plan_haptic_spin(1000, 1, "0").spin_us, 0);
+  // Never more than half the period (a thread that never sleeps is throttled).
+  const SpinPlan capped = plan_haptic_spin(1000, 1, "900");
+  EXPECT_DOUBLE_EQ(capped.spin_us, 500);
+  EXPECT_NE(capped.note.find("capped"), std::string::npos) << capped.note;
+  // Garbage keeps the default and names the value.
+  for (const char* bad : {"fast", "-5", "12us", "nan", "inf"}) {
+    const SpinPlan p = plan_haptic_spin(1000, 1, bad);
+    EXPECT_DOUBLE_EQ(p.spin_us, 400) << bad;
+    EXPECT_NE(p.note.find(std::string("PALPA_HAPTIC_SPIN='") + bad + "'"), std::string::npos) << p.note;
+  }
+}
+
 TEST(RealtimeRefused, FindsTheCpuControllersGroup) {
   // cgroup v2 (one "0::" line), as on the GPU machine that refused root.
   EXPECT_EQ(cgroup_of_cpu_controller("0::/process_api/512b2cf5\n"), "/process_api/512b2cf5");
