@@ -3,6 +3,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/resource.h>
+#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -158,19 +159,27 @@ std::string read_text(const char* path) {
 
 std::string cgroup_of_cpu_controller(const std::string& text) {
   std::istringstream in(text);
-  std::string line, v1;
+  std::string line, v1, v2;
+  bool have_v2 = false;
   while (std::getline(in, line)) {
     // hierarchy-ID:controller-list:path
     const std::size_t a = line.find(':');
     const std::size_t b = a == std::string::npos ? std::string::npos : line.find(':', a + 1);
     if (b == std::string::npos) continue;
     const std::string id = line.substr(0, a), controllers = line.substr(a + 1, b - a - 1), path = line.substr(b + 1);
-    if (id == "0" && controllers.empty()) return path;
+    if (id == "0" && controllers.empty()) {
+      v2 = path;
+      have_v2 = true;
+      continue;
+    }
     std::istringstream list(controllers);
     for (std::string c; std::getline(list, c, ',');)
       if (c == "cpu" && v1.empty()) v1 = path;
   }
-  return v1;
+  // Hybrid: the v1 line holds the CPU controller; the "0::" line is then
+  // systemd's hierarchy without controllers.
+  if (!v1.empty()) return v1;
+  return have_v2 ? v2 : std::string();
 }
 
 bool has_cap_sys_nice(const std::string& text) {
@@ -187,7 +196,19 @@ RealtimeContext read_realtime_context() {
   rlimit limit{};
   if (getrlimit(RLIMIT_RTPRIO, &limit) == 0)
     c.rtprio_limit = limit.rlim_cur == RLIM_INFINITY ? -1 : static_cast<long long>(limit.rlim_cur);
-  c.cgroup = cgroup_of_cpu_controller(read_text("/proc/self/cgroup"));
+  const std::string cgroups = read_text("/proc/self/cgroup");
+  c.cgroup = cgroup_of_cpu_controller(cgroups);
+  c.cgroup_v1 = cgroups.find(":cpu,") != std::string::npos || cgroups.find(":cpu:") != std::string::npos ||
+                cgroups.find(",cpu,") != std::string::npos || cgroups.find(",cpu:") != std::string::npos;
+  // The kernel's build options, where the distribution installs them.
+  utsname u{};
+  if (uname(&u) == 0) {
+    const std::string config = read_text(("/boot/config-" + std::string(u.release)).c_str());
+    if (config.find("\nCONFIG_RT_GROUP_SCHED=y") != std::string::npos)
+      c.rt_group_sched = 1;
+    else if (!config.empty())
+      c.rt_group_sched = 0;
+  }
   const std::string runtime = read_text("/proc/sys/kernel/sched_rt_runtime_us");
   if (!runtime.empty()) c.rt_runtime_us = std::atoll(runtime.c_str());
   return c;
@@ -195,20 +216,23 @@ RealtimeContext read_realtime_context() {
 
 SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env) {
   SpinPlan p;
+  if (!(std::isfinite(rate_hz) && rate_hz > 0)) {
+    p.note = "the haptic thread sleeps to each tick (no valid rate)";
+    return p;
+  }
   const double period_us = 1e6 / rate_hz;
   const double fallback = haptic_cpu >= 0 ? 0.4 * period_us : 0.0;
   char text[200];
-  if (env == "off") {
-    p.note = "the haptic thread sleeps to each tick (PALPA_HAPTIC_SPIN=off)";
-    return p;
-  }
   if (!env.empty()) {
     char* end = nullptr;
-    const double us = std::strtod(env.c_str(), &end);
-    if (end != env.c_str() && *end == '\0' && std::isfinite(us) && us >= 0) {
-      p.spin_us = std::min(us, 0.5 * period_us);
-      std::snprintf(text, sizeof text, "the haptic thread spins the last %.0f us of each %.0f us period (PALPA_HAPTIC_SPIN=%s%s)",
-                    p.spin_us, period_us, env.c_str(), p.spin_us < us ? ", capped at half the period" : "");
+    const double us = env == "off" ? 0.0 : std::strtod(env.c_str(), &end);
+    if (env == "off" || (end != env.c_str() && *end == '\0' && std::isfinite(us) && us >= 0)) {
+      p.spin_us = std::min(us, 0.5 * period_us) + 0.0;  // + 0.0: no "-0"
+      if (p.spin_us > 0)
+        std::snprintf(text, sizeof text, "the haptic thread spins the last %.0f us of each %.0f us period (PALPA_HAPTIC_SPIN=%s%s)",
+                      p.spin_us, period_us, env.c_str(), p.spin_us < us ? ", capped at half the period" : "");
+      else
+        std::snprintf(text, sizeof text, "the haptic thread sleeps to each tick (PALPA_HAPTIC_SPIN=%s)", env.c_str());
       p.note = text;
       return p;
     }
@@ -227,19 +251,27 @@ SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env
 
 std::string realtime_refused_advice(int error, int priority, const RealtimeContext& c) {
   if (error != EPERM) return "the system refused it; see sched_setscheduler(2) for " + std::string(std::strerror(error));
-  const bool allowed = c.root || c.cap_sys_nice || c.rtprio_limit < 0 || c.rtprio_limit >= priority;
+  // The kernel asks for CAP_SYS_NICE or an rtprio limit, not for user id 0.
+  const bool allowed = c.cap_sys_nice || c.rtprio_limit < 0 || c.rtprio_limit >= priority;
+  if (!allowed && c.root)
+    return "Palpa runs as root but without CAP_SYS_NICE (a container drops it: give it back, e.g. docker run "
+           "--cap-add=SYS_NICE)";
   if (!allowed)
     return "grant CAP_SYS_NICE or an rtprio limit of at least " + std::to_string(priority) +
            " (ulimit -r, /etc/security/limits.conf) to the user running Palpa";
   if (c.rt_runtime_us == 0)
     return "the process may use it, but the kernel gives real-time threads no CPU time "
            "(kernel.sched_rt_runtime_us = 0); set it to 950000, the default";
-  if (!c.cgroup.empty() && c.cgroup != "/")
-    return "the process may use it, but its control group " + c.cgroup +
-           " has no real-time CPU time (a kernel with RT group scheduling gives child groups none); run Palpa "
-           "in the root group (as root: echo PID > /sys/fs/cgroup/cgroup.procs) or give its group a "
-           "cpu.rt_runtime_us";
-  return "the process may use it, and the kernel refused it anyway (a container or a security module?)";
+  if (!c.cgroup.empty() && c.cgroup != "/" && c.rt_group_sched != 0) {
+    const std::string how = c.cgroup_v1 ? "(as root: echo PID > /sys/fs/cgroup/cpu/tasks) or give its group a "
+                                          "cpu.rt_runtime_us"
+                                        : "(as root: echo PID > /sys/fs/cgroup/cgroup.procs)";
+    return "the process may use it, but its control group " + c.cgroup + " has no real-time CPU time" +
+           (c.rt_group_sched == 1 ? " (this kernel has RT group scheduling, which gives child groups none)"
+                                  : " if the kernel has RT group scheduling (which gives child groups none)") +
+           "; run Palpa in the root group " + how;
+  }
+  return "the process may use it, and the kernel refused it anyway (a security module?)";
 }
 
 }  // namespace palpa::haptics

@@ -75,16 +75,19 @@ struct RealtimeContext {
   bool cap_sys_nice = false;   ///< CAP_SYS_NICE in the effective capabilities
   long long rtprio_limit = 0;  ///< RLIMIT_RTPRIO's soft limit (-1: unlimited)
   std::string cgroup;          ///< the control group of the CPU controller ("/": the root; "": unknown)
+  bool cgroup_v1 = false;      ///< that controller is on a cgroup v1 hierarchy
+  int rt_group_sched = -1;     ///< CONFIG_RT_GROUP_SCHED in /boot/config-RELEASE: 1 yes, 0 no, -1 unknown
   long long rt_runtime_us = -1;  ///< kernel.sched_rt_runtime_us, us per period (-1: no limit, or unknown)
 };
 
 /// Reads the context from /proc/self/status, /proc/self/cgroup,
-/// /proc/sys/kernel/sched_rt_runtime_us and getrlimit. Not for the haptic
+/// /proc/sys/kernel/sched_rt_runtime_us, /boot/config-RELEASE and getrlimit. Not for the haptic
 /// thread (file reads): HapticLoop calls it in start().
 RealtimeContext read_realtime_context();
 
-/// The CPU controller's group in /proc/self/cgroup's text: the "0::" line
-/// (cgroup v2), else the v1 line naming "cpu"; "" when neither is there.
+/// The CPU controller's group in /proc/self/cgroup's text: the v1 line
+/// naming "cpu" (in a hybrid layout the "0::" line is systemd's, without
+/// controllers), else the "0::" line (cgroup v2); "" when neither is there.
 std::string cgroup_of_cpu_controller(const std::string& proc_self_cgroup_text);
 
 /// Whether /proc/self/status's text gives CAP_SYS_NICE (bit 23) in CapEff.
@@ -92,10 +95,11 @@ bool has_cap_sys_nice(const std::string& proc_self_status_text);
 
 /// The advice when SCHED_FIFO at `priority` was refused with `error`
 /// (pthread_setschedparam's): what stands in the way and what to change.
-/// Where the process has the right (root, CAP_SYS_NICE or an rtprio limit
-/// of at least `priority`) and is still refused, the kernel gives its
-/// control group no real-time CPU time (RT group scheduling), or none to
-/// anyone (sched_rt_runtime_us = 0).
+/// The kernel gives the right with CAP_SYS_NICE or an rtprio limit of at
+/// least `priority` (root without CAP_SYS_NICE, as in a container, has
+/// none). Where the process has it and is still refused, the kernel gives
+/// its control group no real-time CPU time (RT group scheduling), or none
+/// to anyone (sched_rt_runtime_us = 0).
 std::string realtime_refused_advice(int error, int priority, const RealtimeContext& context);
 
 }  // namespace palpa::haptics

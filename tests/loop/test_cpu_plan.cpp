@@ -10,6 +10,7 @@
 #include <sched.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -129,10 +130,20 @@ TEST(HapticSpin, SpinsFortyPercentOfThePeriodOnlyOnAKeptCpu) {
 }
 
 TEST(HapticSpin, TheEnvironmentTurnsItOffOrSetsItWithinHalfAPeriod) {
-  EXPECT_EQ(plan_haptic_spin(1000, 1, "off").spin_us, 0);
+  const SpinPlan off = plan_haptic_spin(1000, 1, "off");
+  EXPECT_EQ(off.spin_us, 0);
+  EXPECT_NE(off.note.find("sleeps to each tick (PALPA_HAPTIC_SPIN=off)"), std::string::npos) << off.note;
+  for (const char* zero : {"0", "-0"}) {
+    const SpinPlan z = plan_haptic_spin(1000, 1, zero);
+    EXPECT_EQ(z.spin_us, 0) << zero;
+    EXPECT_FALSE(std::signbit(z.spin_us)) << zero;
+    EXPECT_NE(z.note.find("sleeps to each tick"), std::string::npos) << z.note;
+  }
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "1e3").spin_us, 500);  // capped
+  EXPECT_EQ(plan_haptic_spin(0, 1, "").spin_us, 0);                  // no valid rate: no spin
+  EXPECT_EQ(plan_haptic_spin(std::nan(""), 1, "").spin_us, 0);
   EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "150").spin_us, 150);
   EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, -1, "150").spin_us, 150);  // asked for: also without a kept CPU
-  EXPECT_EQ(plan_haptic_spin(1000, 1, "0").spin_us, 0);
   // Never more than half the period (a thread that never sleeps is throttled).
   const SpinPlan capped = plan_haptic_spin(1000, 1, "900");
   EXPECT_DOUBLE_EQ(capped.spin_us, 500);
@@ -151,8 +162,11 @@ TEST(RealtimeRefused, FindsTheCpuControllersGroup) {
   EXPECT_EQ(cgroup_of_cpu_controller("0::/\n"), "/");
   // cgroup v1: the line whose controller list holds "cpu" (not "cpuset").
   EXPECT_EQ(cgroup_of_cpu_controller("5:cpuset:/a\n4:cpu,cpuacct:/user.slice\n1:name=systemd:/b\n"), "/user.slice");
-  // Hybrid: v2's line wins.
-  EXPECT_EQ(cgroup_of_cpu_controller("4:cpu,cpuacct:/v1\n0::/v2\n"), "/v2");
+  // Hybrid: the CPU controller is on the v1 line; "0::" is systemd's then.
+  EXPECT_EQ(cgroup_of_cpu_controller("4:cpu,cpuacct:/v1\n0::/v2\n"), "/v1");
+  EXPECT_EQ(cgroup_of_cpu_controller("0::/v2\n4:cpuacct,cpu:/v1\n"), "/v1");
+  // A v1 layout without the cpu controller mounted: no group for it.
+  EXPECT_EQ(cgroup_of_cpu_controller("5:cpuset:/a\n"), "");
   EXPECT_EQ(cgroup_of_cpu_controller(""), "");
   EXPECT_EQ(cgroup_of_cpu_controller("garbage\n"), "");
 }
@@ -172,29 +186,63 @@ TEST(RealtimeRefused, SaysWhatStandsInTheWay) {
   const std::string no_right = realtime_refused_advice(EPERM, 80, user);
   EXPECT_NE(no_right.find("CAP_SYS_NICE"), std::string::npos) << no_right;
   EXPECT_NE(no_right.find("at least 80"), std::string::npos) << no_right;
+  EXPECT_EQ(no_right.find("root group"), std::string::npos) << no_right;
 
-  // An rtprio limit below the priority asked for is no right either.
-  RealtimeContext low = user;
-  low.rtprio_limit = 50;
-  EXPECT_NE(realtime_refused_advice(EPERM, 80, low).find("CAP_SYS_NICE"), std::string::npos);
+  // An rtprio limit below the priority asked for is no right either; at it,
+  // or unlimited, it is.
+  RealtimeContext limit = user;
+  limit.rtprio_limit = 79;
+  EXPECT_NE(realtime_refused_advice(EPERM, 80, limit).find("CAP_SYS_NICE"), std::string::npos);
+  for (long long l : {80LL, 99LL, -1LL}) {
+    limit.rtprio_limit = l;
+    EXPECT_NE(realtime_refused_advice(EPERM, 80, limit).find("may use it"), std::string::npos) << l;
+  }
+  // CAP_SYS_NICE alone is the right.
+  RealtimeContext cap = user;
+  cap.cap_sys_nice = true;
+  EXPECT_NE(realtime_refused_advice(EPERM, 80, cap).find("may use it"), std::string::npos);
 
-  // Root in a child group of a kernel with RT group scheduling (the H200
-  // machine: refused, then allowed once moved to the root group).
+  // Root is not the right: a container's root without CAP_SYS_NICE.
+  RealtimeContext container_root = user;
+  container_root.root = true;
+  const std::string cr = realtime_refused_advice(EPERM, 80, container_root);
+  EXPECT_NE(cr.find("root but without CAP_SYS_NICE"), std::string::npos) << cr;
+  EXPECT_NE(cr.find("--cap-add=SYS_NICE"), std::string::npos) << cr;
+
+  // Root with the capability in a child group of a kernel with RT group
+  // scheduling (the H200 machine: refused, then allowed once moved to the
+  // root group), and a user with an rtprio limit in the same place.
   RealtimeContext boxed;
   boxed.root = true;
+  boxed.cap_sys_nice = true;
   boxed.cgroup = "/process_api/512b2cf5";
   boxed.rt_runtime_us = 950000;
-  for (RealtimeContext c : {boxed, [&] {
-                              RealtimeContext l = user;
-                              l.rtprio_limit = 99;
-                              l.cgroup = boxed.cgroup;
-                              return l;
-                            }()}) {
+  boxed.rt_group_sched = 1;
+  RealtimeContext limited = boxed;
+  limited.root = false;
+  limited.cap_sys_nice = false;
+  limited.rtprio_limit = 99;
+  for (const RealtimeContext& c : {boxed, limited}) {
     const std::string a = realtime_refused_advice(EPERM, 80, c);
     EXPECT_NE(a.find("/process_api/512b2cf5"), std::string::npos) << a;
-    EXPECT_NE(a.find("root group"), std::string::npos) << a;
+    EXPECT_NE(a.find("this kernel has RT group scheduling"), std::string::npos) << a;
+    EXPECT_NE(a.find("/sys/fs/cgroup/cgroup.procs"), std::string::npos) << a;  // v2's file
     EXPECT_EQ(a.find("CAP_SYS_NICE"), std::string::npos) << a;
   }
+  // The same on cgroup v1: its own file and the group's budget.
+  RealtimeContext v1 = boxed;
+  v1.cgroup_v1 = true;
+  const std::string a1 = realtime_refused_advice(EPERM, 80, v1);
+  EXPECT_NE(a1.find("/sys/fs/cgroup/cpu/tasks"), std::string::npos) << a1;
+  EXPECT_NE(a1.find("cpu.rt_runtime_us"), std::string::npos) << a1;
+  // Not known whether the kernel has it: said as a condition.
+  RealtimeContext unknown = boxed;
+  unknown.rt_group_sched = -1;
+  EXPECT_NE(realtime_refused_advice(EPERM, 80, unknown).find("if the kernel has RT group scheduling"), std::string::npos);
+  // Known not to have it: the group is not blamed (a desktop's user slice).
+  RealtimeContext plain = boxed;
+  plain.rt_group_sched = 0;
+  EXPECT_EQ(realtime_refused_advice(EPERM, 80, plain).find("control group"), std::string::npos);
 
   // No real-time time for anyone.
   RealtimeContext none = boxed;
