@@ -13,9 +13,9 @@
 # Usage: tools/gpu-bench-bundle.sh OUT.tar.xz   (after building both targets:
 #        cmake --build build --target palpa-render-bench-gpu palpa-loop-bench-gpu)
 set -euo pipefail
-cd "$(dirname "$0")/.."
 out=${1:?usage: tools/gpu-bench-bundle.sh OUT.tar.xz}
-case "$out" in /*) ;; *) out="$PWD/$out" ;; esac
+case "$out" in /*) ;; *) out="$PWD/$out" ;; esac  # relative to the caller's folder
+cd "$(dirname "$0")/.."
 
 bins=(build/bin/palpa-render-bench-gpu build/bin/palpa-loop-bench-gpu)
 plugin=build/plugins/libpalpa_device_scripted.so
@@ -30,11 +30,19 @@ mkdir -p "$root/bin" "$root/plugins" "$root/lib" "$root/lib-fallback"
 cp "${bins[@]}" "$root/bin/"
 cp "$plugin" "$root/plugins/"
 
-# Every library ldd resolves for the programs and the plugin.
+# Every library ldd resolves for the programs and the plugin; one it cannot
+# find here would be missing there too.
+if ldd "${bins[@]}" "$plugin" | grep -q 'not found'; then
+  echo "gpu-bench-bundle: ldd cannot find some libraries here:" >&2
+  ldd "${bins[@]}" "$plugin" | grep 'not found' | sort -u >&2
+  exit 1
+fi
 ldd "${bins[@]}" "$plugin" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | sort -u |
   while read -r name path; do
     case "$name" in
-      libc.so.*|libm.so.*|libdl.so.*|librt.so.*|libpthread.so.*|ld-linux*) ;;  # the machine's glibc
+      # glibc's own libraries: the machine's must be used, with its ld.so
+      libc.so.*|libm.so.*|libmvec.so.*|libdl.so.*|librt.so.*|libpthread.so.*|libresolv.so.*|libutil.so.*|\
+      libanl.so.*|libnsl.so.*|libnss_*|libthread_db.so.*|libBrokenLocale.so.*|libc_malloc_debug.so.*|ld-linux*) ;;
       libEGL.so.*|libOpenGL.so.*|libGL.so.*|libGLX.so.*|libGLdispatch.so.*|libstdc++.so.*|libgcc_s.so.*)
         cp -L "$path" "$root/lib-fallback/$name" ;;
       *) cp -L "$path" "$root/lib/$name" ;;
