@@ -205,8 +205,10 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   const char* spin_env = std::getenv("PALPA_HAPTIC_SPIN");
   const haptics::SpinPlan spin = haptics::plan_haptic_spin(rate, c.haptic_cpu, spin_env ? spin_env : "");
   c.spin_us = o.spin_us >= 0 ? std::min(o.spin_us, 0.5e6 / rate) : spin.spin_us;
-  std::printf("  spin: %.0f us before each tick (%s)\n", c.spin_us,
-              o.spin_us >= 0 ? "--spin-us" : spin.note.c_str());
+  if (o.spin_us >= 0)
+    std::printf("  spin: %.0f us before each tick (--spin-us)\n", c.spin_us);
+  else
+    std::printf("  spin: %s\n", spin.note.c_str());
   haptics::HapticLoop loop(scene.mesh, scene.materials, {}, c, std::move(probes));
 
   pid_t load_pid = load ? start_load() : -1;

@@ -10,10 +10,13 @@
 // surface, same contacts), so load from other processes hits them alike.
 // Bytes are counted at GLEW's glBufferData/glBufferSubData (all of VTK's
 // uploads and ours, by target); calls/fr is our path's glBufferSubData
-// calls (one per dirty range). "gpu ms" is the GPU's own time for the
-// frame's commands (a GL_TIME_ELAPSED query round render()), so frame ms
-// less gpu ms is the CPU's share; a software renderer (llvmpipe) draws at
-// the glFinish after the query and shows about 0 there. Multisampling is
+// calls (one per dirty range; full uploads not counted). "gpu ms" is the
+// GPU's time from the start to the end of the frame's commands (a
+// GL_TIME_ELAPSED query round render()); it also counts moments the GPU
+// waits for the CPU to send more, so it bounds the GPU's work from above
+// and frame ms less gpu ms bounds the CPU's share from below. A software
+// renderer (llvmpipe) draws at the glFinish after the query and shows
+// about 0 there. Multisampling is
 // off in all cases.
 // Targets (issue 3): uploads <= 16 bytes x changed vertices, no index-buffer
 // upload, frame time within 10% of the static render.
