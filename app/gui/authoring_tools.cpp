@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <set>
 #include <stdexcept>
 
@@ -302,8 +303,10 @@ void AuthoringTools::place_lesion(const Vec3& point) {
   for (const auto& l : doc_->scenario().lesions) names.insert(l.lesion.name);
   std::string name;
   for (int n = 1; name.empty() || names.count(name); ++n) {
-    name = "L";
-    name += std::to_string(n);
+    // Not "L" + std::to_string(n): gcc 12 flags that with a false -Wrestrict.
+    char text[16];
+    std::snprintf(text, sizeof text, "L%d", n);
+    name = text;
   }
   scenario::LesionSpec l;
   l.from_surface = true;
