@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -163,6 +164,8 @@ std::string host_name() {
 }  // namespace
 
 struct Recorder::Impl {
+  std::pair<dev_t, ino_t> live_id{};  // the file, in recording_in_this_process's set while live
+  bool live = false;
   std::filesystem::path file;
   RecorderOptions options;
   Db db;
@@ -417,6 +420,28 @@ void Recorder::Impl::writer_main() {
   }
 }
 
+namespace {
+
+// The files this process's recorders are writing, by device and inode.
+std::mutex g_live_mutex;
+std::set<std::pair<dev_t, ino_t>> g_live_files;
+
+bool file_id(const std::filesystem::path& file, std::pair<dev_t, ino_t>& id) {
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0) return false;
+  id = {st.st_dev, st.st_ino};
+  return true;
+}
+
+}  // namespace
+
+bool recording_in_this_process(const std::filesystem::path& file) {
+  std::pair<dev_t, ino_t> id;
+  if (!file_id(file, id)) return false;
+  std::lock_guard<std::mutex> lock(g_live_mutex);
+  return g_live_files.count(id) > 0;
+}
+
 Recorder::Recorder(const std::filesystem::path& file, const haptics::SessionModel& model,
                    const deform::MaterialArrays& initial_materials, const std::vector<haptics::ProbeSetup>& setups,
                    const SessionInfo& info, RecorderOptions options)
@@ -547,6 +572,10 @@ Recorder::Recorder(const std::filesystem::path& file, const haptics::SessionMode
   m.deforms = std::make_unique<SpscQueue<haptics::DeformRecord>>(options.queue_capacity);
   m.events = std::make_unique<SpscQueue<EventRecord>>(1024);
   m.next_snapshot = options.snapshot_interval_s;
+  if (file_id(file, m.live_id)) {
+    std::lock_guard<std::mutex> lock(g_live_mutex);
+    m.live = g_live_files.insert(m.live_id).second;
+  }
   m.writer = std::thread([this] { impl_->writer_main(); });
 }
 
@@ -608,6 +637,11 @@ void Recorder::finish() {
     }
   }
   m.db = Db();
+  if (m.live) {
+    std::lock_guard<std::mutex> lock(g_live_mutex);
+    g_live_files.erase(m.live_id);
+    m.live = false;
+  }
   if (m.failed.load()) throw RecordError(m.file, m.error);
 }
 

@@ -59,6 +59,13 @@ struct RecorderStats {
   std::uint64_t bytes = 0;     ///< of the file and its WAL, at the last commit
 };
 
+/// Whether a Recorder of this process is writing `file` now (the same file
+/// by device and inode, whatever the path). A session file's status row
+/// names its writer's process id; for this process's own id only this tells
+/// a live recording from one a crashed earlier process with the same id left
+/// behind (process ids repeat, in containers most of all).
+bool recording_in_this_process(const std::filesystem::path& file);
+
 class Recorder {
  public:
   /// Creates `file` (never over an existing file: RecordError "<file>:

@@ -338,7 +338,10 @@ SessionFile SessionFile::open(const std::filesystem::path& file, bool mark) {
     } else if (state == "interrupted") {
       h.status = SessionStatus::Interrupted;
     } else if (state == "recording") {
-      const bool alive = host == host_name() && process_alive(h.writer_pid) && h.writer_pid != getpid();
+      // Our own id: live only if one of our recorders writes it now (else an
+      // earlier process with the same id left it).
+      const bool alive = host == host_name() && process_alive(h.writer_pid) &&
+                         (h.writer_pid != getpid() || recording_in_this_process(file));
       h.status = alive ? SessionStatus::Recording : SessionStatus::Interrupted;
     } else {
       throw RecordError(file, "damaged: unknown status '" + state + "'");

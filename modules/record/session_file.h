@@ -14,7 +14,9 @@
 //
 // A file whose status row says "recording" while its writer process is
 // gone is interrupted: open() reports it so and, when the file is writable
-// and `mark` is true, writes "interrupted" into the status row.
+// and `mark` is true, writes "interrupted" into the status row. A file this
+// process is recording (recording_in_this_process) reads as Recording and
+// is never marked.
 
 #include "haptics/loop.h"
 #include "haptics/loop_replay.h"

@@ -217,5 +217,58 @@ TEST(SessionFile, DeadWriterMeansInterrupted) {
   sqlite3_close(db);
 }
 
+std::string status_row(const std::filesystem::path& f) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open_v2(f.c_str(), &db, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* st = nullptr;
+  sqlite3_prepare_v2(db, "SELECT state FROM status", -1, &st, nullptr);
+  std::string state = sqlite3_step(st) == SQLITE_ROW ? reinterpret_cast<const char*>(sqlite3_column_text(st, 0)) : "";
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+  return state;
+}
+
+// A file this process is recording is live, though its status row names our
+// own process id; one left with our id by no recorder of ours is not (an
+// earlier process that had the same id crashed). Opening the live one used
+// to mark it interrupted, and under load that write could time out on the
+// writer's lock ("cannot mark as interrupted (database is locked)").
+TEST(SessionFile, AFileThisProcessIsRecordingIsLive) {
+  const auto f = test::temp_dir() / "own-writer.palpa";
+  const auto link = test::temp_dir() / "own-writer-link.palpa";
+  std::filesystem::remove(f);
+  std::filesystem::remove(link);
+  const Rig rig;
+  auto s = rig.session();
+  RecorderOptions o;
+  o.block_when_full = true;
+  o.commit_interval_s = 0.01;
+  {
+    Recorder r(f, *rig.model, rig.initial, rig.setups, {}, o);
+    std::array<haptics::ProbeTickInput, 2> in;
+    std::array<haptics::ProbeTickResult, 2> out;
+    for (std::uint64_t n = 0; n < 200; ++n) {
+      for (std::size_t j = 0; j < 2; ++j) in[j] = test::input(j, n);
+      record_step(r, *s, static_cast<double>(n) * 1e-3, in, out);
+    }
+    while (r.stats().ticks_committed < 200) usleep(1000);
+    EXPECT_TRUE(recording_in_this_process(f));
+    std::filesystem::create_symlink(f.filename(), link);
+    EXPECT_TRUE(recording_in_this_process(link)) << "the same file by another path";
+    EXPECT_EQ(SessionFile::open(f).header().status, SessionStatus::Recording);
+    EXPECT_EQ(status_row(f), "recording") << "a live recording was marked";
+    r.finish();
+    EXPECT_FALSE(recording_in_this_process(f));
+  }
+  EXPECT_EQ(SessionFile::open(f).header().status, SessionStatus::Finished);
+  EXPECT_FALSE(recording_in_this_process(test::temp_dir() / "no-such-file.palpa"));
+
+  // Left "recording" with our id by no recorder of ours: interrupted, marked.
+  sql(f, ("UPDATE status SET state = 'recording', pid = " + std::to_string(getpid()) + " WHERE id = 0").c_str());
+  EXPECT_EQ(SessionFile::open(f).header().status, SessionStatus::Interrupted);
+  EXPECT_EQ(status_row(f), "interrupted");
+  std::filesystem::remove(link);
+}
+
 }  // namespace
 }  // namespace palpa::record
