@@ -157,10 +157,9 @@ std::string read_text(const char* path) {
 
 }  // namespace
 
-std::string cgroup_of_cpu_controller(const std::string& text) {
+std::string cgroup_of_cpu_controller(const std::string& text, bool* on_v1) {
   std::istringstream in(text);
   std::string line, v1, v2;
-  bool have_v2 = false;
   while (std::getline(in, line)) {
     // hierarchy-ID:controller-list:path
     const std::size_t a = line.find(':');
@@ -169,7 +168,6 @@ std::string cgroup_of_cpu_controller(const std::string& text) {
     const std::string id = line.substr(0, a), controllers = line.substr(a + 1, b - a - 1), path = line.substr(b + 1);
     if (id == "0" && controllers.empty()) {
       v2 = path;
-      have_v2 = true;
       continue;
     }
     std::istringstream list(controllers);
@@ -178,8 +176,8 @@ std::string cgroup_of_cpu_controller(const std::string& text) {
   }
   // Hybrid: the v1 line holds the CPU controller; the "0::" line is then
   // systemd's hierarchy without controllers.
-  if (!v1.empty()) return v1;
-  return have_v2 ? v2 : std::string();
+  if (on_v1) *on_v1 = !v1.empty();
+  return v1.empty() ? v2 : v1;
 }
 
 bool has_cap_sys_nice(const std::string& text) {
@@ -196,10 +194,7 @@ RealtimeContext read_realtime_context() {
   rlimit limit{};
   if (getrlimit(RLIMIT_RTPRIO, &limit) == 0)
     c.rtprio_limit = limit.rlim_cur == RLIM_INFINITY ? -1 : static_cast<long long>(limit.rlim_cur);
-  const std::string cgroups = read_text("/proc/self/cgroup");
-  c.cgroup = cgroup_of_cpu_controller(cgroups);
-  c.cgroup_v1 = cgroups.find(":cpu,") != std::string::npos || cgroups.find(":cpu:") != std::string::npos ||
-                cgroups.find(",cpu,") != std::string::npos || cgroups.find(",cpu:") != std::string::npos;
+  c.cgroup = cgroup_of_cpu_controller(read_text("/proc/self/cgroup"), &c.cgroup_v1);
   // The kernel's build options, where the distribution installs them.
   utsname u{};
   if (uname(&u) == 0) {

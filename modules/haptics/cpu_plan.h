@@ -88,7 +88,8 @@ RealtimeContext read_realtime_context();
 /// The CPU controller's group in /proc/self/cgroup's text: the v1 line
 /// naming "cpu" (in a hybrid layout the "0::" line is systemd's, without
 /// controllers), else the "0::" line (cgroup v2); "" when neither is there.
-std::string cgroup_of_cpu_controller(const std::string& proc_self_cgroup_text);
+/// `on_v1`, when given, says whether the group came from a v1 line.
+std::string cgroup_of_cpu_controller(const std::string& proc_self_cgroup_text, bool* on_v1 = nullptr);
 
 /// Whether /proc/self/status's text gives CAP_SYS_NICE (bit 23) in CapEff.
 bool has_cap_sys_nice(const std::string& proc_self_status_text);

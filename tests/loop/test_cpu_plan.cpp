@@ -169,6 +169,14 @@ TEST(RealtimeRefused, FindsTheCpuControllersGroup) {
   EXPECT_EQ(cgroup_of_cpu_controller("5:cpuset:/a\n"), "");
   EXPECT_EQ(cgroup_of_cpu_controller(""), "");
   EXPECT_EQ(cgroup_of_cpu_controller("garbage\n"), "");
+  // Which hierarchy the group came from (the advice names each one's file).
+  bool v1 = true;
+  EXPECT_EQ(cgroup_of_cpu_controller("0::/process_api/512b2cf5\n", &v1), "/process_api/512b2cf5");
+  EXPECT_FALSE(v1);
+  EXPECT_EQ(cgroup_of_cpu_controller("4:cpu,cpuacct:/v1\n0::/v2\n", &v1), "/v1");
+  EXPECT_TRUE(v1);
+  EXPECT_EQ(cgroup_of_cpu_controller("5:cpuset:/a\n0::/v2\n", &v1), "/v2");
+  EXPECT_FALSE(v1);
 }
 
 TEST(RealtimeRefused, ReadsCapSysNiceFromTheEffectiveSet) {
