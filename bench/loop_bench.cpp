@@ -16,7 +16,7 @@
 //
 // --spin-us: busy-wait this long before each tick (at most half a period)
 // instead of sleeping to the deadline, which hides wake-up latency. By
-// default the workbench's choice (haptics::plan_haptic_spin: 40% of the
+// default the workbench's choice (haptics::haptic_spin: 40% of the
 // period on a CPU kept for the haptic thread, PALPA_HAPTIC_SPIN to change).
 // --as-built-order: keep make_organ's vertex order instead of the spatial
 // order (mesh::reorder_spatially) every loaded organ gets.
@@ -66,7 +66,7 @@ struct Options {
   double deform_rate = 100;
   bool load_run = true;
   bool load_only = false;
-  double spin_us = -1;  // -1: as the workbench (haptics::plan_haptic_spin)
+  double spin_us = -1;  // -1: as the workbench (haptics::haptic_spin)
   bool spatial_order = true;  // mesh::reorder_spatially, as load_organ numbers every organ
   bool placement = true;      // haptics::reserve_haptic_cpu
   int width = 640;   // offscreen frame, pixels
@@ -202,8 +202,7 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   // At most half a period: a SCHED_FIFO thread that never sleeps is stopped
   // by the kernel's real-time throttling (sched_rt_runtime_us: 50 ms in
   // every second by default), which a full-period spin showed as 50 ms stalls.
-  const char* spin_env = std::getenv("PALPA_HAPTIC_SPIN");
-  const haptics::SpinPlan spin = haptics::plan_haptic_spin(rate, c.haptic_cpu, spin_env ? spin_env : "");
+  const haptics::SpinPlan spin = haptics::haptic_spin(rate, c.haptic_cpu);
   c.spin_us = o.spin_us >= 0 ? std::min(o.spin_us, 0.5e6 / rate) : spin.spin_us;
   if (o.spin_us >= 0)
     std::printf("  spin: %.0f us before each tick (--spin-us)\n", c.spin_us);

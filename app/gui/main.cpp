@@ -96,10 +96,8 @@ int main(int argc, char** argv) {
   // starts.
   const palpa::haptics::CpuPlan plan = palpa::haptics::reserve_haptic_cpu();
   std::printf("palpa: %s\n", plan.note.c_str());
-  const char* spin = std::getenv("PALPA_HAPTIC_SPIN");
   std::printf("palpa: %s\n",
-              palpa::haptics::plan_haptic_spin(palpa::app::Workbench::kHapticRateHz, plan.haptic_cpu, spin ? spin : "")
-                  .note.c_str());
+              palpa::haptics::haptic_spin(palpa::app::Workbench::kHapticRateHz, plan.haptic_cpu).note.c_str());
   std::fflush(stdout);
   palpa::app::configure_application_defaults();
   QApplication app(argc, argv);

@@ -22,7 +22,6 @@
 namespace palpa::app {
 namespace {
 
-constexpr double kHapticRateHz = Workbench::kHapticRateHz;  // haptic tick rate, Hz
 constexpr double kDeformRateHz = 1000;  // deformation integration rate, Hz (the stiff materials need 1 ms steps)
 // Items per record queue of the loop: 8 s of ticks at 1 kHz (about 20 MB
 // for the three queues), emptied every few ms by the recorder's writer or,
@@ -77,8 +76,7 @@ haptics::LoopConfig Workbench::loop_config(const MaterialSettings& m) const {
   c.haptic_cpu = haptics::reserved_haptic_cpu();  // the CPU main() kept for it (-1: none)
   // On a CPU of its own the haptic thread spins the last part of each
   // period (PALPA_HAPTIC_SPIN; main() prints the choice).
-  const char* spin = std::getenv("PALPA_HAPTIC_SPIN");
-  c.spin_us = haptics::plan_haptic_spin(c.core.rate_hz, c.haptic_cpu, spin ? spin : "").spin_us;
+  c.spin_us = haptics::haptic_spin(c.core.rate_hz, c.haptic_cpu).spin_us;
   // PALPA_REALTIME=off: the haptic thread does not ask for SCHED_FIFO (the
   // loop then warns that it runs without real-time priority).
   if (const char* rt = std::getenv("PALPA_REALTIME"); rt && std::string_view(rt) == "off") c.realtime = false;

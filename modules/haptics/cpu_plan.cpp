@@ -244,6 +244,11 @@ SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env
   return p;
 }
 
+SpinPlan haptic_spin(double rate_hz, int haptic_cpu) {
+  const char* env = std::getenv("PALPA_HAPTIC_SPIN");
+  return plan_haptic_spin(rate_hz, haptic_cpu, env ? env : "");
+}
+
 std::string realtime_refused_advice(int error, int priority, const RealtimeContext& c) {
   if (error != EPERM) return "the system refused it; see sched_setscheduler(2) for " + std::string(std::strerror(error));
   // The kernel asks for CAP_SYS_NICE or an rtprio limit, not for user id 0.

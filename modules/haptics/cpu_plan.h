@@ -68,6 +68,10 @@ struct SpinPlan {
 /// default and says so in the note. `rate_hz`: the haptic rate, Hz.
 SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env);
 
+/// plan_haptic_spin with PALPA_HAPTIC_SPIN read from the environment (the
+/// workbench and palpa-loop-bench use this).
+SpinPlan haptic_spin(double rate_hz, int haptic_cpu);
+
 /// What decides whether this process may run a thread at SCHED_FIFO, read
 /// from /proc by read_realtime_context().
 struct RealtimeContext {
