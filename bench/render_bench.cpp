@@ -16,8 +16,7 @@
 // waits for the CPU to send more, so it bounds the GPU's work from above
 // and frame ms less gpu ms bounds the CPU's share from below. A software
 // renderer (llvmpipe) draws at the glFinish after the query and shows
-// about 0 there. Multisampling is
-// off in all cases.
+// about 0 there. Multisampling is off in all cases.
 // Targets (issue 3): uploads <= 16 bytes x changed vertices, no index-buffer
 // upload, frame time within 10% of the static render.
 
@@ -167,9 +166,9 @@ std::vector<CaseResult> run_config(OffscreenScene& scene, const std::shared_ptr<
   } samples[kMethods];
   std::vector<double> changed, step_ms;
   GlUploadCounter counter;
-  // The GPU's own time for each frame's commands (uploads included), where
-  // the driver has timer queries (GL 3.3, ARB_timer_query): the frame time
-  // less this is the CPU's share.
+  // The GPU's time for each frame's commands (uploads included), where the
+  // driver has timer queries (GL 3.3, ARB_timer_query); see the top of the
+  // file for what it bounds.
   GLuint query = 0;
   if (GLEW_VERSION_3_3 || GLEW_ARB_timer_query) glGenQueries(1, &query);
   double t = 0;
