@@ -38,6 +38,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <limits>
 #include <random>
 
 #include <unistd.h>
@@ -92,9 +93,15 @@ class SessionsGuiTest : public ::testing::Test {
     const auto& mesh = *wb.organ().mesh;
     const int id = wb.probes().front().id;
     wb.place(id, mesh.positions[0], mesh.normals[0], 0.0);
+    // The press deepens 0.1 mm every 20 of the loop's ticks (20 ms at 1 kHz),
+    // by the loop's count, not by how often this thread gets to poll: under
+    // load the recording's time still sees the same press.
+    const std::uint64_t pressed_from = wb.loop()->ticks();
     int step = 0;
     EXPECT_TRUE(wait_until([&] {
-      wb.set_depth(id, std::min(0.006, 1e-4 * ++step));  // 0.1 mm deeper every step
+      ++step;
+      const auto n = static_cast<double>(wb.loop()->ticks() - pressed_from) / 20;
+      wb.set_depth(id, std::min(0.006, 1e-4 * (1 + std::floor(n))));
       return wb.recording_stats().ticks_committed >= ticks && step > 40;
     }));
     // The status bar states the writer's drops (none on a quiet machine; a
@@ -320,6 +327,7 @@ TEST_F(SessionsGuiTest, ReplaySeeksToATimeAndShowsTheRecordedTickAndSurface) {
   const double t0 = s.file.ticks(first, first + 1).ticks.front().time;
   const double rate = s.file.header().config.rate_hz;
   EXPECT_NEAR(panel->player()->duration(), static_cast<double>(s.file.header().ticks - 1) / rate, 1e-12);
+  int pressed = 0;  // seeks that saw the probe held pressed
   auto expect_shows = [&](double seconds) {
     SCOPED_TRACE(seconds);
     ASSERT_TRUE(panel->seek(seconds)) << w->error_text().toStdString();
@@ -331,11 +339,19 @@ TEST_F(SessionsGuiTest, ReplaySeeksToATimeAndShowsTheRecordedTickAndSurface) {
     // The slider stands at that time.
     EXPECT_EQ(panel->findChild<QSlider*>("replaySlider")->value(), static_cast<int>(std::lround(p.time() * 1000)));
     // The surface that tick saw, by session_job's re-simulation from the file.
+    // Also how deep the probes pressed over the last 100 ticks, as recorded:
+    // the least, over those ticks, of the deepest probe's penetration, m.
     std::vector<float> expected;
     ForceCheck check;
+    double held_depth = std::numeric_limits<double>::infinity();
     replay_session(s, first, tick + 1,
-                   [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult>,
+                   [&](const haptics::TickRecord& t, std::span<const haptics::ProbeTickResult> probes,
                        const deform::DeformableSurface& surface) {
+                     if (t.tick + 100 > tick) {
+                       double d = 0;
+                       for (const auto& r : probes) d = std::max(d, r.depth);
+                       held_depth = std::min(held_depth, d);
+                     }
                      if (t.tick == tick) expected.assign(surface.stream().begin(), surface.stream().end());
                    },
                    check);
@@ -353,16 +369,26 @@ TEST_F(SessionsGuiTest, ReplaySeeksToATimeAndShowsTheRecordedTickAndSurface) {
       if ((view->drawn_position(i) - want).norm() > 1e-9) ++wrong;
     }
     EXPECT_EQ(wrong, 0u);
-    // Under ThreadSanitizer the scripted press runs in wall time against a
-    // loop many times slower, so how deep the dent got by then is not ours to say.
-    if (!kSlowBuild) {
+    // A probe held at least 1 mm deep for the last 0.1 s dents the surface.
+    // The file says how deep it was (the press follows the loop's ticks, but
+    // this thread sets each depth when it gets to, so not to the tick).
+    std::printf("at %.1f s the probes had pressed >= %.2f mm for 100 ticks; the deepest dent is %.3f mm\n", seconds,
+                1e3 * held_depth, 1e3 * deepest);
+    if (held_depth >= 1e-3) {
       EXPECT_GT(deepest, 1e-4) << "the probe pressed: the recorded surface is dented";
+      ++pressed;
     }
   };
   expect_shows(1.5);
   expect_shows(0.7);   // back: restores the snapshot at or before, re-simulates forward
   expect_shows(1.9);   // ahead: on from where it is
   expect_shows(1.0);
+  // The press reaches 6 mm 1.2 s into the recording by the loop's ticks, so
+  // the later seeks saw it held (unless this thread was starved for most of
+  // a second; under ThreadSanitizer the loop itself falls behind).
+  if (!kSlowBuild) {
+    EXPECT_GE(pressed, 1) << "no seek saw the probe pressed: the dent went unchecked";
+  }
 
   // Play at 4x moves on; pause holds.
   panel->set_speed(4.0);
