@@ -190,6 +190,7 @@ Index DeformableSurface::intern_material(const Material& m) {
 
 void DeformableSurface::build_integrators(const MaterialArrays& materials) {
   // One integrator per distinct material; runs of equal materials skip the lookup.
+  fields_current_ = false;
   integrators_.clear();
   integrator_lookup_.clear();
   integrator_of_.assign(materials.size(), 0);
@@ -275,6 +276,7 @@ void DeformableSurface::set_tissue_map(std::vector<Material> tissues, std::span<
       throw std::invalid_argument(msg.str());
     }
   }
+  fields_current_ = false;
   integrators_.clear();
   integrator_lookup_.clear();
   for (const Material& m : tissues) {
@@ -300,6 +302,7 @@ void DeformableSurface::set_drives(std::vector<Index> vertices, std::vector<std:
     for (float w : weights[j])
       if (!std::isfinite(w)) throw std::invalid_argument("set_drives: a weight is not finite");
   }
+  fields_current_ = false;
   drive_vertices_ = std::move(vertices);
   drive_weights_ = std::move(weights);
 }
@@ -310,6 +313,7 @@ void DeformableSurface::set_material(Index i, const Material& m) {
                                 std::to_string(integrator_of_.size()) + " vertices)");
   }
   validate_material(m, "material of vertex " + std::to_string(i));
+  fields_current_ = false;
   integrator_of_[i] = intern_material(m);
   if (!scale_.empty()) scale_[i] = 1.0f;
   // Painting many distinct values leaves unused integrators behind: compact now and then.
@@ -324,6 +328,7 @@ void DeformableSurface::set_materials(const MaterialArrays& materials) {
 
 void DeformableSurface::set_uniform_material(const Material& m) {
   validate_material(m, "uniform material");
+  fields_current_ = false;
   Integrator g;
   g.material = m;
   if (coefficients_dt_ > 0) g.linear = LinearStep::make(m, coefficients_dt_);
@@ -339,7 +344,27 @@ void DeformableSurface::set_uniform_material(const Material& m) {
   scale_.clear();
 }
 
+namespace {
+
+bool same_bits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
+
+bool same_bits(const Vec3& a, const Vec3& b) {
+  return same_bits(a.x(), b.x()) && same_bits(a.y(), b.y()) && same_bits(a.z(), b.z());
+}
+
+// Every value a contact's field is made from, compared bit for bit.
+bool same_contact(const Contact& a, const Contact& b) {
+  return same_bits(a.point, b.point) && same_bits(a.normal, b.normal) && a.vertex == b.vertex &&
+         same_bits(a.depth, b.depth) && a.shape.kind == b.shape.kind && same_bits(a.shape.radius, b.shape.radius);
+}
+
+}  // namespace
+
 void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
+  // The same contacts again (a probe held still) keep the fields built.
+  if (contacts.size() != contacts_.size() ||
+      !std::equal(contacts.begin(), contacts.end(), contacts_.begin(), same_contact))
+    fields_current_ = false;
   contacts_.assign(contacts.begin(), contacts.end());
 }
 
@@ -498,6 +523,11 @@ void DeformableSurface::field_by_scan(const Contact& c, double depth, const Vec3
 }
 
 void DeformableSurface::apply_fields() {
+  // Fields built from the same contacts, materials and drives: rebuilding
+  // them would give the same bits, the same forced list in the same order,
+  // and no vertex leaving a field.
+  if (fields_current_) return;
+  fields_current_ = true;
   // Clear the previous step's fields, remembering which vertices had one.
   prev_forced_.swap(forced_);
   forced_.clear();
@@ -858,7 +888,7 @@ void DeformableSurface::set_state(const SurfaceState& s) {
 
 void DeformableSurface::restore(const SurfaceState& s, std::span<const Contact> contacts) {
   if (s.vertices.size() != mesh_->vertex_count()) set_state(s);  // throws with the sizes
-  contacts_.assign(contacts.begin(), contacts.end());
+  set_contacts(contacts);
   apply_fields();
   set_state(s);
 }
@@ -866,6 +896,7 @@ void DeformableSurface::restore(const SurfaceState& s, std::span<const Contact> 
 void DeformableSurface::reset() {
   // Release contacts and their fields.
   contacts_.clear();
+  fields_current_ = false;
   prev_forced_.swap(forced_);
   forced_.clear();
   for (Index i : prev_forced_) {
@@ -973,6 +1004,9 @@ void DeformableSurface::level_with(DeformableSurface& src) {
   contacts_.assign(src.contacts_.begin(), src.contacts_.end());
   state_.time = src.state_.time;
   drive_values_ = src.drive_values_;
+  // Our fields are now source's, made from the same contacts and drives, and
+  // (as the caller guarantees) the same materials.
+  fields_current_ = src.fields_current_;
   src.clear_changes();
 }
 

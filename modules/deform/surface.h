@@ -161,7 +161,10 @@ class DeformableSurface {
   /// that is not finite; sizes must match.
   void set_drives(std::vector<Index> vertices, std::vector<std::array<float, 4>> weights);
   /// The drives' values for the following steps, m (no allocation).
-  void set_drive_values(const std::array<double, 4>& values) { drive_values_ = values; }
+  void set_drive_values(const std::array<double, 4>& values) {
+    if (values != drive_values_) fields_current_ = false;
+    drive_values_ = values;
+  }
 
   const SurfaceOptions& options() const { return options_; }
 
@@ -306,6 +309,11 @@ class DeformableSurface {
   std::vector<Vec3> correction_;      // eq. (3) sum, per vertex
   std::vector<Index> forced_;         // vertices inside a contact's field this step
   std::vector<Index> prev_forced_;    // forced_ of the previous step
+  // force_, correction_, the forced flags and forced_ are what apply_fields
+  // would build from contacts_, the materials and the drives as they are now
+  // (bit for bit: it depends on nothing else), so a step with the same
+  // contacts skips the visit. Cleared by every edit of those.
+  bool fields_current_ = false;
   std::vector<Index> active_;         // active set: first active_size_ entries (storage for every vertex)
   std::size_t active_size_ = 0;
   std::vector<std::uint8_t> flags_;   // bit 0: active, bit 1: forced, bit 2: visited, bit 3: dirty

@@ -409,6 +409,90 @@ TEST(Surface, LevelWithLeavesBothReplicasEqualToOneThatStepped) {
   }
 }
 
+// A step whose contacts are the last step's, bit for bit, reuses the fields
+// it built (a probe held still); every edit the fields depend on must make
+// the next step build them again. Checked against a surface made afresh
+// before every step (so it has no fields to reuse): the same materials,
+// tissue map and drives, restored to the state before the step with the
+// step's contacts. The stepping surfaces are a pair of replicas, roles
+// alternating as in the live loop, with every edit reaching both.
+TEST(Surface, HeldContactsStepAsIfTheirFieldsWereRebuilt) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(3000, R);
+  const Index n_vertices = static_cast<Index>(m->vertex_count());
+  // Drives on the vertices of one cap, so some lie inside the contacts' fields.
+  std::vector<Index> drive_vertices;
+  std::vector<std::array<float, 4>> drive_weights;
+  for (Index i = 0; i < n_vertices; ++i) {
+    if (m->positions[i].z() > 0.07) {
+      drive_vertices.push_back(i);
+      drive_weights.push_back({0.5f, 0.25f, 0.0f, 0.0f});
+    }
+  }
+  std::vector<std::uint16_t> tissue_of(m->vertex_count());
+  std::vector<float> scale(m->vertex_count());
+  for (Index i = 0; i < n_vertices; ++i) {
+    tissue_of[i] = m->positions[i].x() > 0 ? 1 : 0;
+    scale[i] = 1.0f + 0.5f * static_cast<float>(std::abs(m->positions[i].y()) / R);
+  }
+  Material hertz = linear();
+  hertz.model = LocalModelKind::Hertz;
+  hertz.hertz = 2e4;
+  const std::vector<Material> tissues = {linear(), hertz};
+
+  DeformableSurface r0(m, mixed_materials(*m)), r1(m, mixed_materials(*m));
+  DeformableSurface* replicas[2] = {&r0, &r1};
+  // Held sets, so most steps reuse their fields.
+  const auto frames = random_frames(*m, R, 7u, 400);
+  bool map = false, driven = false;
+  std::array<double, 4> drive{};
+  std::size_t held = 0;
+  for (std::size_t n = 0; n < frames.size(); ++n) {
+    DeformableSurface& src = *replicas[n % 2];
+    DeformableSurface& dst = *replicas[1 - n % 2];
+    held += n > 0 && frames[n].size() == frames[n - 1].size() &&
+            std::equal(frames[n].begin(), frames[n].end(), frames[n - 1].begin(),
+                       [](const Contact& a, const Contact& b) { return a.point == b.point && a.depth == b.depth; });
+    // The edits, each on a frame whose contacts are held from the last one.
+    for (DeformableSurface* s : {&src, &dst}) {
+      if (n % 53 == 20) {
+        Material soft = linear();
+        soft.stiffness = 250 + static_cast<double>(n);
+        s->set_uniform_material(soft);
+        map = false;
+      }
+      if (n % 53 == 30 && !frames[n].empty()) s->set_material(frames[n].front().vertex, hertz);
+      if (n % 53 == 40) {
+        s->set_tissue_map(tissues, tissue_of, scale);
+        map = true;
+      }
+      if (n == 100) {
+        s->set_drives(drive_vertices, drive_weights);
+        driven = true;
+      }
+      if (n % 13 == 5) drive = {0.001 * static_cast<double>(n % 4), -0.0005, 0, 0};
+      s->set_drive_values(drive);
+      if (n % 97 == 60) s->reset();
+    }
+    // The reference: a new surface with the same materials and drives, at
+    // the state before the step, with the step's contacts.
+    DeformableSurface fresh(m, src.materials());
+    if (map) fresh.set_tissue_map(tissues, tissue_of, scale);
+    if (driven) fresh.set_drives(drive_vertices, drive_weights);
+    fresh.set_drive_values(drive);
+    fresh.restore(src.state(), frames[n]);
+    const double dt = n % 5 == 0 ? 2e-3 : 1e-3;
+    fresh.step(dt);
+    src.set_contacts(frames[n]);
+    src.step(dt);
+    dst.level_with(src);
+    expect_level(fresh, src, "source after frame " + std::to_string(n));
+    expect_level(fresh, dst, "copy after frame " + std::to_string(n));
+    ASSERT_FALSE(HasFatalFailure());
+  }
+  EXPECT_GT(held, 200u) << "the frames hold their contacts";
+}
+
 TEST(Surface, LevelWithMarksExactlyTheCopiedStreamChangesDirty) {
   const double R = 0.1;
   const MeshPtr m = sphere(3000, R);
