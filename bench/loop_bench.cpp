@@ -12,12 +12,14 @@
 //
 // Usage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]
 //                         [--deform-rate HZ (100)] [--spin-us US] [--no-load-run] [--load-only]
-//                         [--as-built-order] [--no-placement]
+//                         [--as-built-order] [--no-placement] [--no-warm]
 //
 // --spin-us: busy-wait this long before each tick (at most half a period)
 // instead of sleeping to the deadline, which hides wake-up latency. By
 // default the workbench's choice (haptics::haptic_spin: 40% of the
 // period on a CPU kept for the haptic thread, PALPA_HAPTIC_SPIN to change).
+// --no-warm: no warm-up run of the last tick at the spin's start
+// (LoopConfig::warm_before_tick, on by default as in the workbench).
 // --as-built-order: keep make_organ's vertex order instead of the spatial
 // order (mesh::reorder_spatially) every loaded organ gets.
 // --no-placement: no CPU kept for the haptic thread (haptics::reserve_haptic_cpu),
@@ -67,6 +69,7 @@ struct Options {
   bool load_run = true;
   bool load_only = false;
   double spin_us = -1;  // -1: as the workbench (haptics::haptic_spin)
+  bool warm = true;     // LoopConfig::warm_before_tick
   bool spatial_order = true;  // mesh::reorder_spatially, as load_organ numbers every organ
   bool placement = true;      // haptics::reserve_haptic_cpu
   int width = 640;   // offscreen frame, pixels
@@ -77,7 +80,7 @@ struct Options {
   std::fprintf(stderr,
                "palpa-loop-bench: %s\nusage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]\n"
                "                        [--deform-rate HZ] [--spin-us US] [--no-load-run] [--load-only]\n"
-               "                        [--as-built-order] [--no-placement]\n",
+               "                        [--as-built-order] [--no-placement] [--no-warm]\n",
                why);
   std::exit(2);
 }
@@ -112,6 +115,8 @@ Options parse(int argc, char** argv) {
       o.spatial_order = false;
     } else if (a == "--no-placement") {
       o.placement = false;
+    } else if (a == "--no-warm") {
+      o.warm = false;
     } else {
       usage(("unknown option " + a).c_str());
     }
@@ -208,6 +213,9 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
     std::printf("  spin: %.0f us before each tick (--spin-us)\n", c.spin_us);
   else
     std::printf("  spin: %s\n", spin.note.c_str());
+  c.warm_before_tick = o.warm;
+  if (c.spin_us > 0)
+    std::printf("  warm-up of the last tick at the spin's start: %s\n", o.warm ? "on" : "off (--no-warm)");
   haptics::HapticLoop loop(scene.mesh, scene.materials, {}, c, std::move(probes));
 
   pid_t load_pid = load ? start_load() : -1;

@@ -76,6 +76,12 @@ struct LoopConfig {
   int haptic_cpu = -1;             ///< pin the haptic thread to this CPU (-1: no pinning)
   int deform_cpu = -1;             ///< pin the deformation thread (-1: no pinning)
   double spin_us = 0;              ///< busy-wait this long before each tick for precise starts, us
+  /// With a spin (spin_us > 0): at the spin's start, run the last tick again
+  /// on the replica the next tick will most likely use, into scratch
+  /// (LoopCore::warm_caches; changes no result), so that the tick finds its
+  /// data in this CPU's caches after the sleep and after the deformation
+  /// thread wrote a new replica on another CPU.
+  bool warm_before_tick = true;
   /// Items per recorder queue; 0 (default): no recording. A recorder sets it
   /// (e.g. 1 << 16) and drains the queues often enough (LoopRecording::drain).
   std::size_t record_capacity = 0;
@@ -226,6 +232,8 @@ class HapticLoop {
   LoopStatistics statistics() const;
   /// Ticks made so far.
   std::uint64_t ticks() const { return ticks_.load(std::memory_order_acquire); }
+  /// Warm-ups run before ticks so far (LoopConfig::warm_before_tick).
+  std::uint64_t warm_ups() const { return warm_ups_.load(std::memory_order_acquire); }
   /// True when no deformation request waits (every requested step is made).
   bool deform_idle() const;
 
@@ -346,7 +354,7 @@ class HapticLoop {
 
   // Statistics (written by the threads, read by anyone).
   DurationHistogram tick_hist_, jitter_hist_, latency_hist_, deform_hist_;
-  std::atomic<std::uint64_t> ticks_{0}, misses_{0}, skipped_{0}, watchdog_trips_{0}, model_late_{0},
+  std::atomic<std::uint64_t> ticks_{0}, warm_ups_{0}, misses_{0}, skipped_{0}, watchdog_trips_{0}, model_late_{0},
       record_drops_{0}, deform_steps_{0}, deform_overruns_{0}, deform_drops_{0};
   std::atomic<double> start_time_{0}, stop_time_{0}, last_miss_time_{-1e9}, deform_start_time_{0};
   std::atomic<bool> realtime_{false};

@@ -329,7 +329,7 @@ struct LiveRig {
   SafetyLimits safety = limits();
 
   LiveRig(std::shared_ptr<const SessionModel> model, const deform::MaterialArrays& materials, std::size_t probes,
-          const SafetyLimits& safety_limits = limits())
+          const SafetyLimits& safety_limits = limits(), double spin_us = 0)
       : safety(safety_limits) {
     for (std::size_t i = 0; i < st.size(); ++i) {
       st[i].clock = [this] { return clock.now_s(); };
@@ -339,6 +339,7 @@ struct LiveRig {
     for (auto& s : st) devs.push_back(test::make_fake_device(s));
     LoopConfig c;
     c.clock = &clock;
+    c.spin_us = spin_us;  // with it, the warm-up at the spin's start (warm_before_tick)
     std::vector<ProbeBinding> b;
     for (std::size_t i = 0; i < probes; ++i) b.push_back(binding(i));
     loop = std::make_unique<HapticLoop>(model, materials, c, b);
@@ -359,7 +360,10 @@ struct LiveRig {
   }
 };
 
-TEST(Session, ThreadedLoopEqualsSessionStepBitForBit) {
+// The live loop, fed the script's positions and edits at the same ticks as
+// Session::step, gives the same bits; `spin_us` > 0 adds the haptic thread's
+// warm-up run of the last tick before each tick.
+void expect_loop_equals_session(double spin_us) {
   auto mesh = plane();
   const auto model = SessionModel::make(mesh, {}, core_config());
   const auto materials = deform::MaterialArrays::uniform(mesh->vertex_count(), material(kK0));
@@ -370,7 +374,7 @@ TEST(Session, ThreadedLoopEqualsSessionStepBitForBit) {
   drive(session, kTicks, want);
 
   // The live loop, fed the same positions and edits at the same ticks.
-  LiveRig rig(model, materials, 2);
+  LiveRig rig(model, materials, 2, limits(), spin_us);
   rig.loop->start();
   std::size_t differ = 0, slot = 99;
   std::string first;
@@ -408,7 +412,15 @@ TEST(Session, ThreadedLoopEqualsSessionStepBitForBit) {
   // The removed device was told zero and not read again.
   EXPECT_EQ(rig.st[1].reads.load(), kRemove);
   EXPECT_EQ(rig.st[2].reads.load(), kTicks - kAdd);
+  // Every tick after the first was warmed up with a spin, none without.
+  EXPECT_EQ(rig.loop->warm_ups(), spin_us > 0 ? kTicks - 1 : 0u);
 }
+
+TEST(Session, ThreadedLoopEqualsSessionStepBitForBit) { expect_loop_equals_session(0); }
+
+// The warm-up runs the last tick again on the replica the next tick reads,
+// on the haptic thread, between ticks: it must change no result and no state.
+TEST(Session, ThreadedLoopWithTheWarmUpEqualsSessionStepBitForBit) { expect_loop_equals_session(400); }
 
 // ---- edits on the running loop --------------------------------------------------
 
