@@ -675,14 +675,28 @@ void HapticLoop::haptic_main() {
   const bool warm = spin > 0 && config_.warm_before_tick;
   while (!stop_.load(std::memory_order_relaxed)) {
     if (warm && tick_ > 0) {
-      // At the spin's start: the last tick again, into scratch, on the
-      // current replica (taken and left as the tick does), so the tick reads
-      // from this CPU's caches. A few microseconds of a spin of hundreds.
-      clock.sleep_until(next - spin, 0);
+      // From the spin's start until shortly before the tick: the last tick
+      // again, into scratch, on the current replica (taken and left as the
+      // tick does), and again whenever the deformation thread publishes
+      // another, so the tick reads from this CPU's caches. A few
+      // microseconds each, on a CPU that would only spin.
+      const std::int64_t last_start = next - std::min<std::int64_t>(spin / 4, 50'000);
+      constexpr std::int64_t kPoll = 10'000;  // ns between looks at the current replica
+      std::int64_t at = next - spin;
+      int warmed = -1;
+      for (;;) {
+        clock.sleep_until(at, kPoll);  // the monotonic clock busy-waits this
+        if (stop_.load(std::memory_order_relaxed)) break;
+        if (current_.load(std::memory_order_acquire) != warmed) {
+          warmed = take_replica();
+          core_->warm_caches(*replicas_[warmed]);
+          in_use_.store(-1, std::memory_order_seq_cst);
+          warm_ups_.fetch_add(1, std::memory_order_release);
+        }
+        at = clock.now_ns() + kPoll;
+        if (at > last_start) break;
+      }
       if (stop_.load(std::memory_order_relaxed)) break;
-      core_->warm_caches(*replicas_[take_replica()]);
-      in_use_.store(-1, std::memory_order_seq_cst);
-      warm_ups_.fetch_add(1, std::memory_order_release);
     }
     clock.sleep_until(next, spin);
     if (stop_.load(std::memory_order_relaxed)) break;
