@@ -173,7 +173,9 @@ class DeformableSurface {
   /// span releases all contacts. Contacts with a zero or non-finite depth, a
   /// non-finite point or a radius <= 0 shape nothing. With Topological
   /// propagation a contact whose vertex is not a mesh vertex falls back to the
-  /// DistanceNormal test.
+  /// DistanceNormal test. The same contacts again, bit for bit, with no
+  /// material, tissue-map or drive edit since, keep the fields already
+  /// built: the next step does not visit them again (same results).
   void set_contacts(std::span<const Contact> contacts);
   std::span<const Contact> contacts() const { return contacts_; }
 
