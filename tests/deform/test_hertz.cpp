@@ -158,7 +158,9 @@ TEST(Drives, AFreeVertexRestsAtItsLiftAndOthersStayAtRest) {
   for (int k = 0; k < 3000; ++k) s.step(1e-3);
   EXPECT_NEAR(s.state().vertices[60].h, 0.001, 1e-9);
   for (Index i = 0; i < m->vertex_count(); ++i)
-    if (i != 60) EXPECT_EQ(s.state().vertices[i].h, 0.0);
+    if (i != 60) {
+      EXPECT_EQ(s.state().vertices[i].h, 0.0);
+    }
   s.set_drive_values({0, 0, 0, 0});
   for (int k = 0; k < 3000; ++k) s.step(1e-3);
   EXPECT_NEAR(s.state().vertices[60].h, 0.0, 1e-7);

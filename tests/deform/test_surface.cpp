@@ -544,7 +544,9 @@ TEST(Surface, WarmLevelWithAllocatesNothing) {
       dst.level_with(src);
       allocations += test::stop_counting_allocations();
     }
-    if (pass == 1) EXPECT_EQ(allocations, 0);
+    if (pass == 1) {
+      EXPECT_EQ(allocations, 0);
+    }
   }
 }
 

@@ -70,7 +70,9 @@ TEST_F(PluginOptions, EveryPluginDeclaresItsOptionsWithHelp) {
         EXPECT_LT(o.min, o.max) << name << " " << o.name;
         EXPECT_FALSE(o.default_value.empty()) << name << " " << o.name;
       }
-      if (o.type == PALPA_OPTION_CHOICE) EXPECT_GE(o.choices.size(), 2u) << name << " " << o.name;
+      if (o.type == PALPA_OPTION_CHOICE) {
+        EXPECT_GE(o.choices.size(), 2u) << name << " " << o.name;
+      }
     }
   }
   // The scripted plugin's file is required, with units where they apply.

@@ -106,7 +106,7 @@ struct Sample {
 
 std::vector<Sample> press_along_normal(Scene& s, Index v, double depth_max, int ticks, int step_every) {
   s.surface->reset();
-  Session session{s, step_every};
+  Session session{s, step_every, 0, {}};
   const Vec3 p = s.mesh->positions[v], n = s.mesh->normals[v];
   const double start = -0.002;
   const double speed = (depth_max - start) / (ticks * kTick);  // m/s
@@ -231,7 +231,7 @@ TEST(DeepPress, IssuesVerticalPressOnTheDefaultOrganNeverLetsGo) {
   const mesh::MeshFacts facts = mesh::analyse(*s.mesh);
   const double cx = 0.5 * (facts.bbox_min.x() + facts.bbox_max.x());
   const double cy = 0.5 * (facts.bbox_min.y() + facts.bbox_max.y());
-  Session session{s, 1};
+  Session session{s, 1, 0, {}};
   const int ticks = 2000;
   bool touched = false;
   double last = 0;
@@ -316,7 +316,7 @@ TEST(DeepPress, SlidingDeepPressesAcrossFoldsKeepContact) {
       const Index v0 = vertex(rng);
       const std::vector<Vec3> slide = sliding_path(s, rng, v0, 1000, 4e-5, depth);
       s.surface->reset();
-      Session session{s, 1};
+      Session session{s, 1, 0, {}};
       // Press in along the normal over 0.5 s.
       const Vec3 p = s.mesh->positions[v0], n = s.mesh->normals[v0];
       for (int k = 0; k <= 500; ++k) {
@@ -376,7 +376,7 @@ TEST(DeepPress, ProbeMemoryIsASnapshot) {
     const Vec3 side = 0.01 * std::sin(0.003 * k) * n.unitOrthogonal();
     return ProbeInput{p - d * n + side, -0.05 * n};
   };
-  Session sa{a, 1}, sb{b, 1};
+  Session sa{a, 1, 0, {}}, sb{b, 1, 0, {}};
   for (int k = 0; k < 1200; ++k) {
     sa.tick(input(k));
     sb.tick(input(k));
