@@ -26,8 +26,11 @@ std::int64_t mono_ns() {
 // are busy-waited for a precise start.
 void mono_sleep_until(std::int64_t ns, std::int64_t spin_ns) {
   const std::int64_t wake = ns - spin_ns;
-  timespec ts{static_cast<time_t>(wake / 1'000'000'000), static_cast<long>(wake % 1'000'000'000)};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  // No system call when the wake time has passed (a short wait all spun).
+  if (wake > mono_ns()) {
+    timespec ts{static_cast<time_t>(wake / 1'000'000'000), static_cast<long>(wake % 1'000'000'000)};
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    }
   }
   if (spin_ns > 0)
     while (mono_ns() < ns) {
@@ -679,14 +682,16 @@ void HapticLoop::haptic_main() {
       // again, into scratch, on the current replica (taken and left as the
       // tick does), and again whenever the deformation thread publishes
       // another, so the tick reads from this CPU's caches. A few
-      // microseconds each, on a CPU that would only spin.
+      // microseconds each, on a CPU that would only spin; none is started
+      // less than a quarter of the spin (at most 50 us) before the tick, so
+      // a late tick is not made later.
       const std::int64_t last_start = next - std::min<std::int64_t>(spin / 4, 50'000);
       constexpr std::int64_t kPoll = 10'000;  // ns between looks at the current replica
       std::int64_t at = next - spin;
       int warmed = -1;
       for (;;) {
-        clock.sleep_until(at, kPoll);  // the monotonic clock busy-waits this
-        if (stop_.load(std::memory_order_relaxed)) break;
+        clock.sleep_until(at, kPoll);  // the monotonic clock spins a wait this short
+        if (stop_.load(std::memory_order_relaxed) || clock.now_ns() >= last_start) break;
         if (current_.load(std::memory_order_acquire) != warmed) {
           warmed = take_replica();
           core_->warm_caches(*replicas_[warmed]);
@@ -694,7 +699,6 @@ void HapticLoop::haptic_main() {
           warm_ups_.fetch_add(1, std::memory_order_release);
         }
         at = clock.now_ns() + kPoll;
-        if (at > last_start) break;
       }
       if (stop_.load(std::memory_order_relaxed)) break;
     }

@@ -395,7 +395,21 @@ void expect_loop_equals_session(double spin_us) {
     if (tick == kRemove) loop.remove_probe(1);
     if (tick == kForce) loop.set_force(more_friction());
     if (tick == kMaterialMap) loop.set_materials(stiffness_map(*mesh));
-    ASSERT_TRUE(test::run_ticks(loop, rig.clock, 1));
+    if (spin_us > 0 && tick > 0) {
+      // Time to the spin's start (and 1 us into it): the warm-up runs there,
+      // then the rest of the period makes the tick.
+      const std::int64_t into_spin = test::period_ns(loop) - static_cast<std::int64_t>(spin_us * 1e3) + 1000;
+      const std::uint64_t warm_ups = loop.warm_ups();
+      rig.clock.advance(into_spin);
+      ASSERT_TRUE(rig.clock.await([&] { return loop.warm_ups() > warm_ups; }, test::kLoopWaitTimeout))
+          << "no warm-up before tick " << tick;
+      ASSERT_EQ(loop.ticks(), tick) << "the warm-up made a tick";
+      rig.clock.advance(test::period_ns(loop) - into_spin);
+      ASSERT_TRUE(rig.clock.await([&] { return loop.ticks() > tick && loop.deform_idle(); }, test::kLoopWaitTimeout))
+          << "tick " << tick;
+    } else {
+      ASSERT_TRUE(test::run_ticks(loop, rig.clock, 1));
+    }
     const LoopView v = loop.view();
     ASSERT_EQ(v.tick, tick);
     TickOut o;
@@ -412,7 +426,8 @@ void expect_loop_equals_session(double spin_us) {
   // The removed device was told zero and not read again.
   EXPECT_EQ(rig.st[1].reads.load(), kRemove);
   EXPECT_EQ(rig.st[2].reads.load(), kTicks - kAdd);
-  // Every tick after the first was warmed up with a spin, none without.
+  // One warm-up before every tick after the first with a spin (the clock
+  // then stands still until the tick's time), none without.
   EXPECT_EQ(rig.loop->warm_ups(), spin_us > 0 ? kTicks - 1 : 0u);
 }
 
@@ -421,6 +436,19 @@ TEST(Session, ThreadedLoopEqualsSessionStepBitForBit) { expect_loop_equals_sessi
 // The warm-up runs the last tick again on the replica the next tick reads,
 // on the haptic thread, between ticks: it must change no result and no state.
 TEST(Session, ThreadedLoopWithTheWarmUpEqualsSessionStepBitForBit) { expect_loop_equals_session(400); }
+
+// A warm-up that would start when the tick is (nearly) due is not run: it
+// would only make that tick later. Here the clock jumps a whole period at
+// a time, so the haptic thread always wakes at its tick's time.
+TEST(Session, NoWarmUpStartsWhenTheTickIsDue) {
+  auto mesh = plane();
+  const auto model = SessionModel::make(mesh, {}, core_config());
+  LiveRig rig(model, deform::MaterialArrays::uniform(mesh->vertex_count(), material(kK0)), 1, limits(), 400);
+  rig.loop->start();
+  rig.loop->enable(0);
+  ASSERT_TRUE(test::run_ticks(*rig.loop, rig.clock, 20));
+  EXPECT_EQ(rig.loop->warm_ups(), 0u);
+}
 
 // ---- edits on the running loop --------------------------------------------------
 
