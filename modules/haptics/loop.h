@@ -77,10 +77,11 @@ struct LoopConfig {
   int deform_cpu = -1;             ///< pin the deformation thread (-1: no pinning)
   double spin_us = 0;              ///< busy-wait this long before each tick for precise starts, us
   /// With a spin (spin_us > 0): at the spin's start, run the last tick again
-  /// on the replica the next tick will most likely use, into scratch
-  /// (LoopCore::warm_caches; changes no result), so that the tick finds its
-  /// data in this CPU's caches after the sleep and after the deformation
-  /// thread wrote a new replica on another CPU.
+  /// on the current replica, into scratch (LoopCore::warm_caches; changes no
+  /// result), and again whenever the deformation thread publishes another
+  /// (looked at every 10 us), so that the tick finds its data in this CPU's
+  /// caches after the sleep and after a replica was written on another CPU.
+  /// None starts within a quarter of the spin (at most 50 us) of the tick.
   bool warm_before_tick = true;
   /// Items per recorder queue; 0 (default): no recording. A recorder sets it
   /// (e.g. 1 << 16) and drains the queues often enough (LoopRecording::drain).
