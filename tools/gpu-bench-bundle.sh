@@ -32,12 +32,13 @@ cp "$plugin" "$root/plugins/"
 
 # Every library ldd resolves for the programs and the plugin; one it cannot
 # find here would be missing there too.
-if ldd "${bins[@]}" "$plugin" | grep -q 'not found'; then
+deps=$(ldd "${bins[@]}" "$plugin")
+if grep -q 'not found' <<<"$deps"; then
   echo "gpu-bench-bundle: ldd cannot find some libraries here:" >&2
-  ldd "${bins[@]}" "$plugin" | grep 'not found' | sort -u >&2
+  grep 'not found' <<<"$deps" | sort -u >&2
   exit 1
 fi
-ldd "${bins[@]}" "$plugin" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' | sort -u |
+awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}' <<<"$deps" | sort -u |
   while read -r name path; do
     case "$name" in
       # glibc's own libraries: the machine's must be used, with its ld.so
