@@ -219,9 +219,11 @@ SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env
   const double fallback = haptic_cpu >= 0 ? 0.4 * period_us : 0.0;
   char text[200];
   if (!env.empty()) {
+    // "off" reads as 0 us; otherwise the whole text must be a number >= 0.
+    const bool off = env == "off";
     char* end = nullptr;
-    const double us = env == "off" ? 0.0 : std::strtod(env.c_str(), &end);
-    if (env == "off" || (end != env.c_str() && *end == '\0' && std::isfinite(us) && us >= 0)) {
+    const double us = off ? 0.0 : std::strtod(env.c_str(), &end);
+    if (off || (end != env.c_str() && *end == '\0' && std::isfinite(us) && us >= 0)) {
       p.spin_us = std::min(us, 0.5 * period_us) + 0.0;  // + 0.0: no "-0"
       if (p.spin_us > 0)
         std::snprintf(text, sizeof text, "the haptic thread spins the last %.0f us of each %.0f us period (PALPA_HAPTIC_SPIN=%s%s)",
