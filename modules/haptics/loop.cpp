@@ -677,7 +677,7 @@ void HapticLoop::haptic_main() {
   };
   const bool warm = spin > 0 && config_.warm_before_tick;
   while (!stop_.load(std::memory_order_relaxed)) {
-    if (warm && tick_ > 0) {
+    if (warm && core_->can_warm()) {
       // From the spin's start until shortly before the tick: the last tick
       // again, into scratch, on the current replica (taken and left as the
       // tick does), and again whenever the deformation thread publishes

@@ -81,7 +81,9 @@ struct LoopConfig {
   /// result), and again whenever the deformation thread publishes another
   /// (looked at every 10 us), so that the tick finds its data in this CPU's
   /// caches after the sleep and after a replica was written on another CPU.
-  /// None starts within a quarter of the spin (at most 50 us) of the tick.
+  /// None starts within a quarter of the spin (at most 50 us) of the tick,
+  /// and none before the first tick with a probe since start() or restore()
+  /// (there is no last tick to run again).
   bool warm_before_tick = true;
   /// Items per recorder queue; 0 (default): no recording. A recorder sets it
   /// (e.g. 1 << 16) and drains the queues often enough (LoopRecording::drain).

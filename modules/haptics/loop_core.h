@@ -347,7 +347,13 @@ class LoopCore {
   void set_state(const CoreState& s) noexcept {
     state_ = s;
     use_field(state_.tissue ? state_.tissue->field.get() : base_field_);
+    // The last tick's probe positions belong to the state before: nothing to
+    // warm until a tick from this state has run.
+    last_dense_ = 0;
   }
+  /// Whether warm_caches has a tick to run again: a tick with at least one
+  /// probe has run since the core was made or its state last set.
+  bool can_warm() const noexcept { return last_dense_ > 0; }
 
  private:
   void use_field(const tissue::TissueField* field) noexcept {

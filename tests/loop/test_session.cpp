@@ -450,6 +450,48 @@ TEST(Session, NoWarmUpStartsWhenTheTickIsDue) {
   EXPECT_EQ(rig.loop->warm_ups(), 0u);
 }
 
+// After restore() the core's last tick belongs to another state (the probe
+// positions it read are not in the snapshot), so no warm-up runs before the
+// first tick from the restored state; after that one precedes every tick.
+TEST(Session, NoWarmUpAfterARestoreUntilATickHasRun) {
+  auto mesh = plane();
+  const auto model = SessionModel::make(mesh, {}, core_config());
+  constexpr double kSpinUs = 400;
+  LiveRig rig(model, deform::MaterialArrays::uniform(mesh->vertex_count(), material(kK0)), 1, limits(), kSpinUs);
+  HapticLoop& loop = *rig.loop;
+  const std::int64_t period = test::period_ns(loop);
+  const std::int64_t into_spin = period - static_cast<std::int64_t>(kSpinUs * 1e3) + 1000;
+  // One tick with the clock stopped 1 us into the spin first; `warm` says
+  // whether a warm-up is awaited there, else the thread is given 200 ms in
+  // which a warm-up would show.
+  auto spun_tick = [&](bool warm) {
+    const std::uint64_t tick = loop.ticks(), warm_ups = loop.warm_ups();
+    rig.clock.advance(into_spin);
+    if (warm) {
+      ASSERT_TRUE(rig.clock.await([&] { return loop.warm_ups() > warm_ups; }, test::kLoopWaitTimeout))
+          << "no warm-up before tick " << tick;
+    } else {
+      EXPECT_FALSE(rig.clock.await([&] { return loop.warm_ups() > warm_ups; }, std::chrono::milliseconds(200)))
+          << "a warm-up before tick " << tick;
+    }
+    rig.clock.advance(period - into_spin);
+    ASSERT_TRUE(rig.clock.await([&] { return loop.ticks() > tick && loop.deform_idle(); }, test::kLoopWaitTimeout))
+        << "tick " << tick;
+  };
+  rig.place(0, 0);
+  loop.start();
+  loop.enable(0);
+  for (int k = 0; k < 5; ++k) spun_tick(k > 0);
+  loop.stop();
+  const SessionState snap = loop.snapshot();
+  loop.restore(snap);
+  rig.clock.reset();
+  const std::uint64_t before = loop.warm_ups();
+  loop.start();
+  for (int k = 0; k < 5; ++k) spun_tick(k > 0);
+  EXPECT_EQ(loop.warm_ups() - before, 4u);
+}
+
 // ---- edits on the running loop --------------------------------------------------
 
 Index vertex_under(const mesh::SurfaceMesh& m, double x, double y) {
