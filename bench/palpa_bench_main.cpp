@@ -457,6 +457,11 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     std::array<haptics::ProbeTickResult, kMaxProbes> results{};
     // Ticks split by whether a step ran just before them on this thread.
     std::vector<double> tick_ns, step_ns, tick_after_step_ns, tick_other_ns;
+    // Ticks split by whether a probe's contact triangle changed in them (a
+    // crossing: the walk prepares a new triangle, so the tick's cost grows
+    // with how many triangles a probe crosses per second, that is with the
+    // mesh's density along the path).
+    std::vector<double> tick_cross_ns, tick_stay_ns;
     // Ticks split by the slowest contact path any probe took (walk < proxy < tree).
     std::array<std::vector<double>, 3> tick_by_path;
     bool stepped = false;
@@ -470,6 +475,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       for (int p = 0; p < probes; ++p) {
         inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
       }
+      std::array<Index, kMaxProbes> triangle_before{};
+      for (int p = 0; p < probes; ++p) triangle_before[p] = session.core().state().memory[p].cursor.triangle;
       const auto a = Clock::now();
       const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
                                     std::span<haptics::ProbeTickResult>(results.data(), probes));
@@ -492,6 +499,10 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
           }
         }
         tick_by_path[slowest].push_back(ns);
+        bool crossed = false;
+        for (int p = 0; p < probes; ++p)
+          crossed |= session.core().state().memory[p].cursor.triangle != triangle_before[p];
+        (crossed ? tick_cross_ns : tick_stay_ns).push_back(ns);
       }
       if (due) {
         if (probes == kMaxProbes) requests.push_back(session.core().request());
@@ -507,6 +518,13 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     }
     const bench::Latency after_step = bench::latency_of(tick_after_step_ns);
     const bench::Latency other = bench::latency_of(tick_other_ns);
+    const bench::Latency crossing = bench::latency_of(tick_cross_ns);
+    const bench::Latency staying = bench::latency_of(tick_stay_ns);
+    std::printf("[%s] %d probe%s: ticks where a probe changed triangle (%.1f%%) p50 %.3f p99 %.3f us, the others p50 "
+                "%.3f p99 %.3f us\n",
+                mc.name.c_str(), probes, probes == 1 ? "" : "s",
+                tick_ns.empty() ? 0.0 : 100.0 * static_cast<double>(tick_cross_ns.size()) / static_cast<double>(tick_ns.size()),
+                crossing.p50_us, crossing.p99_us, staying.p50_us, staying.p99_us);
     std::printf("[%s] %d probe%s: ticks right after a step p50 %.3f p99 %.3f us, the others p50 %.3f p99 %.3f us\n",
                 mc.name.c_str(), probes, probes == 1 ? "" : "s", after_step.p50_us, after_step.p99_us, other.p50_us,
                 other.p99_us);
@@ -532,6 +550,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["walk_fraction"] = tr.walk_fraction;
       r["after_step"] = latency_json(after_step);
       r["not_after_step"] = latency_json(other);
+      r["triangle_changed"] = latency_json(crossing);
+      r["triangle_kept"] = latency_json(staying);
       r["by_path"] = {{"walk", latency_json(by_path[0])}, {"proxy", latency_json(by_path[1])},
                       {"tree", latency_json(by_path[2])}};
       res.records.push_back(r);
