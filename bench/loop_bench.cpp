@@ -30,6 +30,7 @@
 #include "haptics/loop.h"
 #include "mesh/generate.h"
 #include "mesh/spatial_order.h"
+#include "render/heap.h"
 #include "render/scene.h"
 #include "render/surface_view.h"
 
@@ -348,6 +349,9 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Mesa's software renderer frees and allocates its buffers every frame:
+  // keep the freed heap in the process (render/heap.h).
+  render::keep_freed_heap();
   const Options o = parse(argc, argv);
   // One CPU kept for the haptic thread, everything else (and llvmpipe's
   // workers) on the others, as in the workbench.

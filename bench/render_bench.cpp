@@ -24,6 +24,7 @@
 #include "deform/surface.h"
 #include "haptics/session.h"
 #include "mesh/generate.h"
+#include "render/heap.h"
 #include "render/offscreen.h"
 #include "render/scene.h"
 #include "render/surface_view.h"
@@ -261,6 +262,8 @@ void usage() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // llvmpipe's per-frame buffers: keep the freed heap (render/heap.h).
+  palpa::render::keep_freed_heap();
   Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

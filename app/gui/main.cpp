@@ -8,6 +8,7 @@
 #include "app/render/render_job.h"
 #include "app/scenario/scenario_check.h"
 #include "haptics/cpu_plan.h"
+#include "render/heap.h"
 
 #include <QApplication>
 #include <QFileInfo>
@@ -57,6 +58,9 @@ bool is_scenario(const std::string& path) { return QFileInfo(QString::fromStdStr
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Mesa's software renderer frees and allocates its buffers every frame:
+  // keep the freed heap in the process (render/heap.h).
+  palpa::render::keep_freed_heap();
   std::vector<std::string> args(argv + 1, argv + argc);
   if (!args.empty() && args[0] == "render") return run_headless({args.begin() + 1, args.end()}, "palpa-render.png");
   if (!args.empty() && args[0] == "scenario")

@@ -2,6 +2,7 @@
 // (OSMesa by default, EGL on a GPU). See app/render/render_job.h.
 
 #include "app/render/render_job.h"
+#include "render/heap.h"
 
 #include <cstdio>
 #include <iostream>
@@ -9,6 +10,9 @@
 #include <vector>
 
 int main(int argc, char** argv) {
+  // Mesa's software renderer frees and allocates its buffers every frame:
+  // keep the freed heap in the process (render/heap.h).
+  palpa::render::keep_freed_heap();
   std::vector<std::string> args(argv + 1, argv + argc);
   try {
     bool help = false;

@@ -7,6 +7,7 @@
 #include "app/replay/session_job.h"
 #include "assess/coverage.h"
 #include "mesh/surface_mesh.h"
+#include "render/heap.h"
 #include "render/lesion_view.h"
 #include "render/offscreen.h"
 #include "render/probe_view.h"
@@ -841,6 +842,9 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Mesa's software renderer frees and allocates its buffers every frame:
+  // keep the freed heap in the process (render/heap.h).
+  palpa::render::keep_freed_heap();
   Options o;
   try {
     o = parse(argc, argv);
