@@ -360,6 +360,29 @@ struct LiveRig {
   }
 };
 
+// One tick of a started `loop` with a spin of `spin_us`, with the clock
+// stopped 1 us into the spin first: where `expect_warm`, a warm-up must run
+// there (and make no tick); otherwise the haptic thread is given 200 ms in
+// which a warm-up would show, and none may. Then the rest of the period
+// makes the tick.
+void tick_through_spin(HapticLoop& loop, test::ManualClock& clock, double spin_us, bool expect_warm) {
+  const std::int64_t period = test::period_ns(loop);
+  const std::int64_t into_spin = period - static_cast<std::int64_t>(spin_us * 1e3) + 1000;
+  const std::uint64_t tick = loop.ticks(), warm_ups = loop.warm_ups();
+  clock.advance(into_spin);
+  if (expect_warm) {
+    ASSERT_TRUE(clock.await([&] { return loop.warm_ups() > warm_ups; }, test::kLoopWaitTimeout))
+        << "no warm-up before tick " << tick;
+  } else {
+    EXPECT_FALSE(clock.await([&] { return loop.warm_ups() > warm_ups; }, std::chrono::milliseconds(200)))
+        << "a warm-up before tick " << tick;
+  }
+  ASSERT_EQ(loop.ticks(), tick) << "the warm-up made a tick";
+  clock.advance(period - into_spin);
+  ASSERT_TRUE(clock.await([&] { return loop.ticks() > tick && loop.deform_idle(); }, test::kLoopWaitTimeout))
+      << "tick " << tick;
+}
+
 // The live loop, fed the script's positions and edits at the same ticks as
 // Session::step, gives the same bits; `spin_us` > 0 adds the haptic thread's
 // warm-up run of the last tick before each tick.
@@ -396,17 +419,8 @@ void expect_loop_equals_session(double spin_us) {
     if (tick == kForce) loop.set_force(more_friction());
     if (tick == kMaterialMap) loop.set_materials(stiffness_map(*mesh));
     if (spin_us > 0 && tick > 0) {
-      // Time to the spin's start (and 1 us into it): the warm-up runs there,
-      // then the rest of the period makes the tick.
-      const std::int64_t into_spin = test::period_ns(loop) - static_cast<std::int64_t>(spin_us * 1e3) + 1000;
-      const std::uint64_t warm_ups = loop.warm_ups();
-      rig.clock.advance(into_spin);
-      ASSERT_TRUE(rig.clock.await([&] { return loop.warm_ups() > warm_ups; }, test::kLoopWaitTimeout))
-          << "no warm-up before tick " << tick;
-      ASSERT_EQ(loop.ticks(), tick) << "the warm-up made a tick";
-      rig.clock.advance(test::period_ns(loop) - into_spin);
-      ASSERT_TRUE(rig.clock.await([&] { return loop.ticks() > tick && loop.deform_idle(); }, test::kLoopWaitTimeout))
-          << "tick " << tick;
+      // The warm-up runs at the spin's start, then the tick.
+      ASSERT_NO_FATAL_FAILURE(tick_through_spin(loop, rig.clock, spin_us, true));
     } else {
       ASSERT_TRUE(test::run_ticks(loop, rig.clock, 1));
     }
@@ -459,36 +473,17 @@ TEST(Session, NoWarmUpAfterARestoreUntilATickHasRun) {
   constexpr double kSpinUs = 400;
   LiveRig rig(model, deform::MaterialArrays::uniform(mesh->vertex_count(), material(kK0)), 1, limits(), kSpinUs);
   HapticLoop& loop = *rig.loop;
-  const std::int64_t period = test::period_ns(loop);
-  const std::int64_t into_spin = period - static_cast<std::int64_t>(kSpinUs * 1e3) + 1000;
-  // One tick with the clock stopped 1 us into the spin first; `warm` says
-  // whether a warm-up is awaited there, else the thread is given 200 ms in
-  // which a warm-up would show.
-  auto spun_tick = [&](bool warm) {
-    const std::uint64_t tick = loop.ticks(), warm_ups = loop.warm_ups();
-    rig.clock.advance(into_spin);
-    if (warm) {
-      ASSERT_TRUE(rig.clock.await([&] { return loop.warm_ups() > warm_ups; }, test::kLoopWaitTimeout))
-          << "no warm-up before tick " << tick;
-    } else {
-      EXPECT_FALSE(rig.clock.await([&] { return loop.warm_ups() > warm_ups; }, std::chrono::milliseconds(200)))
-          << "a warm-up before tick " << tick;
-    }
-    rig.clock.advance(period - into_spin);
-    ASSERT_TRUE(rig.clock.await([&] { return loop.ticks() > tick && loop.deform_idle(); }, test::kLoopWaitTimeout))
-        << "tick " << tick;
-  };
   rig.place(0, 0);
   loop.start();
   loop.enable(0);
-  for (int k = 0; k < 5; ++k) spun_tick(k > 0);
+  for (int k = 0; k < 5; ++k) ASSERT_NO_FATAL_FAILURE(tick_through_spin(loop, rig.clock, kSpinUs, k > 0));
   loop.stop();
   const SessionState snap = loop.snapshot();
   loop.restore(snap);
   rig.clock.reset();
   const std::uint64_t before = loop.warm_ups();
   loop.start();
-  for (int k = 0; k < 5; ++k) spun_tick(k > 0);
+  for (int k = 0; k < 5; ++k) ASSERT_NO_FATAL_FAILURE(tick_through_spin(loop, rig.clock, kSpinUs, k > 0));
   EXPECT_EQ(loop.warm_ups() - before, 4u);
 }
 
