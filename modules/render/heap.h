@@ -15,10 +15,10 @@ inline constexpr std::size_t kKeptHeapBytes = std::size_t{256} << 20;
 /// adaptive threshold reaches.
 inline constexpr std::size_t kHeapBlockBytes = std::size_t{32} << 20;
 
-/// Sets glibc's trim threshold (M_TRIM_THRESHOLD) to `kept` bytes and its
+/// Sets glibc's trim threshold (M_TRIM_THRESHOLD) to kKeptHeapBytes and its
 /// mmap threshold (M_MMAP_THRESHOLD) to kHeapBlockBytes, so that memory
-/// freed at the top of the heap stays in the process up to `kept` bytes and
-/// blocks up to 32 MiB are taken from the heap.
+/// freed at the top of the heap stays in the process up to 256 MiB and
+/// blocks below 32 MiB are taken from the heap.
 ///
 /// llvmpipe allocates and frees its buffers for every frame. With glibc's
 /// default trim threshold the heap shrank after each frame and the next
@@ -32,6 +32,6 @@ inline constexpr std::size_t kHeapBlockBytes = std::size_t{32} << 20;
 ///
 /// Call once, early in main, in a program that renders. Returns false where
 /// the C library refused either setting.
-bool keep_freed_heap(std::size_t kept = kKeptHeapBytes);
+bool keep_freed_heap();
 
 }  // namespace palpa::render
