@@ -1,4 +1,5 @@
 #include "haptics/loop.h"
+#include "haptics/spin_warm.h"
 
 #include <pthread.h>
 #include <sched.h>
@@ -685,21 +686,16 @@ void HapticLoop::haptic_main() {
       // microseconds each, on a CPU that would only spin; none is started
       // less than a quarter of the spin (at most 50 us) before the tick, so
       // a late tick is not made later.
-      const std::int64_t last_start = next - std::min<std::int64_t>(spin / 4, 50'000);
-      constexpr std::int64_t kPoll = 10'000;  // ns between looks at the current replica
-      std::int64_t at = next - spin;
-      int warmed = -1;
-      for (;;) {
-        clock.sleep_until(at, kPoll);  // the monotonic clock spins a wait this short
-        if (stop_.load(std::memory_order_relaxed) || clock.now_ns() >= last_start) break;
-        if (current_.load(std::memory_order_acquire) != warmed) {
-          warmed = take_replica();
-          core_->warm_caches(*replicas_[warmed]);
-          in_use_.store(-1, std::memory_order_seq_cst);
-          warm_ups_.fetch_add(1, std::memory_order_release);
-        }
-        at = clock.now_ns() + kPoll;
-      }
+      warm_during_spin(
+          clock, next, spin, [this] { return current_.load(std::memory_order_acquire); },
+          [&] {
+            const int warmed = take_replica();
+            core_->warm_caches(*replicas_[warmed]);
+            in_use_.store(-1, std::memory_order_seq_cst);
+            warm_ups_.fetch_add(1, std::memory_order_release);
+            return warmed;
+          },
+          [this] { return stop_.load(std::memory_order_relaxed); });
       if (stop_.load(std::memory_order_relaxed)) break;
     }
     clock.sleep_until(next, spin);
