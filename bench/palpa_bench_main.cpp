@@ -16,6 +16,7 @@
 #include "collision/contact.h"
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
+#include "haptics/cpu_plan.h"
 #include "haptics/probe_tick.h"
 #include "haptics/session.h"
 #include "mesh/generate.h"
@@ -84,6 +85,7 @@ struct Options {
   bool tissue_map_only = false;
   bool threaded = true;  // also the tick with the step on another thread (3 probes)
   bool threaded_both = false;  // ... with both replicas stepped (before issue 8)
+  bool threaded_warm = true;   // ... warming during the spin before each tick, as HapticLoop
   bool spatial_order = true;   // mesh::reorder_spatially, as load_organ numbers every organ
   std::string only;      // only meshes whose name contains this
 };
@@ -103,6 +105,8 @@ void print_usage() {
       "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n"
       "  --threaded-both    the threaded run steps both replicas (as before issue 8) instead of level_with\n"
       "  --no-threaded      skip the paced run with the deformation step on another thread\n"
+      "  --no-warm          in that run, spin before each tick without the loop's warm-up\n"
+      "                     (LoopConfig::warm_before_tick)\n"
       "  --as-built-order   keep each mesh's vertex order as generated or read (before issue 8's\n"
       "                     spatial order; load_organ numbers organs along a Hilbert curve)\n"
       "  --only TEXT        only the meshes whose name contains TEXT (=NAME: only the mesh NAME)\n",
@@ -151,6 +155,8 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       o.threaded_both = true;
     } else if (a == "--no-threaded") {
       o.threaded = false;
+    } else if (a == "--no-warm") {
+      o.threaded_warm = false;
     } else if (a == "--as-built-order") {
       o.spatial_order = false;
     } else if (a == "--only") {
@@ -578,11 +584,19 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       res.records.push_back(r);
       res.replicas.push_back(rr);
       if (opt.threaded) {
-        ThreadRow th{mc.name, V, bench::measure_threaded(model, paths, probes, plan.warmup, plan.ticks, !opt.threaded_both)};
-        std::printf("[%s] threaded (step on another thread, paced at 1 kHz), 3 probes: tick p50 %.3f p99 %.3f p99.9 "
-                    "%.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged)\n",
-                    mc.name.c_str(), th.f.tick.p50_us, th.f.tick.p99_us, th.f.tick.p999_us, th.f.step.p50_us * 1e-3,
-                    th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged);
+        // The haptic thread's wait as in the workbench with a CPU kept for it:
+        // a spin of haptics::plan_haptic_spin's default, with the warm-up.
+        bench::ThreadedPacing pacing;
+        pacing.level = !opt.threaded_both;
+        pacing.spin_us = haptics::plan_haptic_spin(1 / kTickPeriod, 0, "").spin_us;
+        pacing.warm = opt.threaded_warm;
+        ThreadRow th{mc.name, V, bench::measure_threaded(model, paths, probes, plan.warmup, plan.ticks, pacing)};
+        const double warm_per_tick =
+            static_cast<double>(th.f.warm_ups) / static_cast<double>(std::max<std::size_t>(1, plan.warmup + plan.ticks));
+        std::printf("[%s] threaded (step on another thread, paced at 1 kHz, spin %.0f us, %.2f warm-ups per tick), "
+                    "3 probes: tick p50 %.3f p99 %.3f p99.9 %.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged)\n",
+                    mc.name.c_str(), pacing.spin_us, warm_per_tick, th.f.tick.p50_us, th.f.tick.p99_us,
+                    th.f.tick.p999_us, th.f.step.p50_us * 1e-3, th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged);
         json t = base;
         t.update(latency_json(th.f.tick));
         t["suite"] = "tick_threaded";
@@ -590,6 +604,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         t["step"] = latency_json(th.f.step);
         t["steps"] = th.f.steps;
         t["merged"] = th.f.merged;
+        t["spin_us"] = pacing.spin_us;
+        t["warm_ups_per_tick"] = warm_per_tick;
         res.records.push_back(t);
         res.threaded.push_back(th);
       }
@@ -836,7 +852,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
 // Tables and targets.
 const char* verdict(bool ok) { return ok ? "PASS" : "FAIL"; }
 
-void print_tables(const Results& r, const bench::ClockOverhead& clock) {
+void print_tables(const Results& r, const bench::ClockOverhead& clock, const Options& opt) {
   auto tick_of = [&](const std::string& mesh, int probes) -> const TickRow* {
     for (const auto& t : r.ticks)
       if (t.mesh == mesh && t.probes == probes) return &t;
@@ -944,8 +960,9 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock) {
                 x.f.equal ? "yes" : "NO", target.c_str());
   }
   if (!r.threaded.empty()) {
-    std::printf("\n== Haptic tick with the deformation step on another thread (LoopCore::tick paced at 1 kHz; the "
-                "other thread steps one replica and levels the other, as HapticLoop), 3 probes, us\n");
+    std::printf("\n== Haptic tick with the deformation step on another thread (LoopCore::tick paced at 1 kHz after "
+                "a spin, %s; the other thread steps one replica and levels the other, as HapticLoop), 3 probes, us\n",
+                opt.threaded_warm ? "warming the tick's data during it as HapticLoop" : "without the warm-up (--no-warm)");
     std::printf("%-40s %9s %8s %8s %8s %8s %10s %10s %7s  %s\n", "mesh", "vertices", "p50", "p99", "p99.9", "max",
                 "step p50", "step p99", "merged", "target");
     const ThreadRow* small = nullptr;
@@ -1099,7 +1116,7 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (!opt.tissue_map_only) print_tables(results, clock);
+  if (!opt.tissue_map_only) print_tables(results, clock, opt);
   try {
     bench::run_tissue_map_bench(1'000'000, opt.quick ? 3 : 5, results.records);
   } catch (const std::exception& e) {

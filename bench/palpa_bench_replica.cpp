@@ -3,9 +3,13 @@
 #include "palpa_bench_replica.h"
 
 #include "core/spsc_queue.h"
+#include "haptics/loop.h"
+#include "haptics/spin_warm.h"
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <memory>
 #include <thread>
@@ -87,7 +91,8 @@ ReplicaStepFigures measure_replica_steps(const haptics::SessionModel& model,
 }
 
 ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionModel>& model, const ProbePaths& paths,
-                                 int probes, std::size_t warmup, std::size_t ticks, bool level) {
+                                 int probes, std::size_t warmup, std::size_t ticks, const ThreadedPacing& pacing) {
+  const bool level = pacing.level;
   std::vector<haptics::ProbeSetup> setups(static_cast<std::size_t>(probes));
   for (auto& su : setups) {
     su.name = "bench probe";
@@ -140,30 +145,48 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
     }
   });
 
-  // The haptic side, paced at the model's rate (sleep, then spin the last 100 us).
+  // The haptic side, paced at the model's rate on the loop's clock: sleep,
+  // then spin the last spin_us, warming during the spin as HapticLoop does.
   const double period = 1.0 / model->config.rate_hz;
-  const auto period_ns = std::chrono::nanoseconds(static_cast<long long>(period * 1e9));
+  const auto period_ns = static_cast<std::int64_t>(std::llround(period * 1e9));
+  const auto spin_ns = static_cast<std::int64_t>(std::min(pacing.spin_us * 1e3, 0.5 * static_cast<double>(period_ns)));
+  haptics::LoopClock& clock = haptics::monotonic_clock();
   std::array<haptics::ProbeTickInput, haptics::kMaxProbes> inputs{};
   std::array<haptics::ProbeTickResult, haptics::kMaxProbes> results{};
   haptics::ContactSet contacts;
   std::vector<double> tick_ns;
   tick_ns.reserve(ticks);
-  const std::size_t total = std::min(paths.ticks, warmup + ticks);
-  auto next = Clock::now() + period_ns;
-  for (std::size_t k = 0; k < total; ++k) {
-    const auto wake = next - std::chrono::microseconds(100);
-    if (Clock::now() < wake) std::this_thread::sleep_until(wake);
-    while (Clock::now() < next) {
-    }
-    next += period_ns;
-    const double t = static_cast<double>(k) * period;
-    for (int p = 0; p < probes; ++p) inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
-    const auto a = Clock::now();
+  std::size_t warm_ups = 0;
+  // Takes the current replica (announce, then re-check), as HapticLoop does.
+  auto take_replica = [&] {
     int idx;
     do {
       idx = current.load();
       in_use.store(idx);
     } while (current.load() != idx);
+    return idx;
+  };
+  const std::size_t total = std::min(paths.ticks, warmup + ticks);
+  std::int64_t next = clock.now_ns() + period_ns;
+  for (std::size_t k = 0; k < total; ++k) {
+    if (pacing.warm && spin_ns > 0 && core.can_warm()) {
+      haptics::warm_during_spin(
+          clock, next, spin_ns, [&] { return current.load(); },
+          [&] {
+            const int warmed = take_replica();
+            core.warm_caches(*replicas[warmed]);
+            in_use.store(-1);
+            ++warm_ups;
+            return warmed;
+          },
+          [] { return false; });
+    }
+    clock.sleep_until(next, spin_ns);
+    next += period_ns;
+    const double t = static_cast<double>(k) * period;
+    for (int p = 0; p < probes; ++p) inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
+    const auto a = Clock::now();
+    const int idx = take_replica();
     const bool due = core.tick(k, t, *replicas[idx], meta[idx].time,
                                std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
                                std::span<haptics::ProbeTickResult>(results.data(), probes), contacts);
@@ -180,6 +203,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   f.tick = latency_of(tick_ns);
   f.steps = step_ns.size();
   f.merged = merged;
+  f.warm_ups = warm_ups;
   f.step = latency_of(step_ns);
   return f;
 }

@@ -31,12 +31,22 @@ ReplicaStepFigures measure_replica_steps(const haptics::SessionModel& model,
 /// not writing) paced at the model's rate on this thread while another
 /// thread makes the deformation steps on the other replica and brings the
 /// first level, exactly as HapticLoop::process (level false: steps both
-/// replicas, as HapticLoop did before issue 8). Per tick and per step, us.
+/// replicas, as HapticLoop did before issue 8). This thread waits for each
+/// tick as the haptic thread of the workbench does: it sleeps, then spins
+/// the last `spin_us` (us), and with `warm` runs the warm-up of
+/// LoopConfig::warm_before_tick during the spin (haptics::warm_during_spin).
+/// Per tick and per step, us.
 struct ThreadedFigures {
   Latency tick, step;
   std::size_t steps = 0, merged = 0;
+  std::size_t warm_ups = 0;  ///< warm-ups run before the timed ticks and between them
+};
+struct ThreadedPacing {
+  bool level = true;
+  double spin_us = 400;  ///< the workbench's spin at 1 kHz with a CPU kept for the haptic thread
+  bool warm = true;
 };
 ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionModel>& model, const ProbePaths& paths,
-                                 int probes, std::size_t warmup, std::size_t ticks, bool level = true);
+                                 int probes, std::size_t warmup, std::size_t ticks, const ThreadedPacing& pacing);
 
 }  // namespace palpa::bench
