@@ -597,6 +597,11 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
                     "3 probes: tick p50 %.3f p99 %.3f p99.9 %.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged)\n",
                     mc.name.c_str(), pacing.spin_us, warm_per_tick, th.f.tick.p50_us, th.f.tick.p99_us,
                     th.f.tick.p999_us, th.f.step.p50_us * 1e-3, th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged);
+        std::printf("[%s] threaded, 3 probes: ticks on the replica warmed last %zu p50 %.3f p99 %.3f us, on one "
+                    "published after it %zu p50 %.3f p99 %.3f us; a warm-up p50 %.3f p99 %.3f us\n",
+                    mc.name.c_str(), th.f.tick_warmed.samples, th.f.tick_warmed.p50_us, th.f.tick_warmed.p99_us,
+                    th.f.tick_unwarmed.samples, th.f.tick_unwarmed.p50_us, th.f.tick_unwarmed.p99_us, th.f.warm.p50_us,
+                    th.f.warm.p99_us);
         json t = base;
         t.update(latency_json(th.f.tick));
         t["suite"] = "tick_threaded";
@@ -606,6 +611,9 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         t["merged"] = th.f.merged;
         t["spin_us"] = pacing.spin_us;
         t["warm_ups_per_tick"] = warm_per_tick;
+        t["on_warmed_replica"] = latency_json(th.f.tick_warmed);
+        t["on_replica_published_after_warm_up"] = latency_json(th.f.tick_unwarmed);
+        t["warm_up"] = latency_json(th.f.warm);
         res.records.push_back(t);
         res.threaded.push_back(th);
       }

@@ -106,6 +106,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   };
   Meta meta[2];
   std::atomic<int> current{0}, in_use{-1};
+  std::atomic<std::uint64_t> publishes{0};  // replicas made current so far (for the split by warm-up)
   std::atomic<bool> stop{false};
   SpscQueue<haptics::DeformRequest> queue(64);
   std::vector<double> step_ns;
@@ -132,6 +133,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
       replicas[other]->take_dirty_ranges();
       meta[other].time = r.time;
       current.store(other);
+      publishes.fetch_add(1);
       while (in_use.load() == cur) std::this_thread::sleep_for(std::chrono::microseconds(20));
       if (level) {
         haptics::apply_deform_edits(*replicas[cur], r.edits);
@@ -154,9 +156,14 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   std::array<haptics::ProbeTickInput, haptics::kMaxProbes> inputs{};
   std::array<haptics::ProbeTickResult, haptics::kMaxProbes> results{};
   haptics::ContactSet contacts;
-  std::vector<double> tick_ns;
+  std::vector<double> tick_ns, tick_warmed_ns, tick_unwarmed_ns, warm_ns;
   tick_ns.reserve(ticks);
+  tick_warmed_ns.reserve(ticks);
+  tick_unwarmed_ns.reserve(ticks);
   std::size_t warm_ups = 0;
+  // The replica last warmed, as the count of publishes when it was taken
+  // (none yet: the largest count).
+  std::uint64_t warmed_publish = ~std::uint64_t{0};
   // Takes the current replica (announce, then re-check), as HapticLoop does.
   auto take_replica = [&] {
     int idx;
@@ -173,10 +180,13 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
       haptics::warm_during_spin(
           clock, next, spin_ns, [&] { return current.load(); },
           [&] {
+            const auto w0 = Clock::now();
             const int warmed = take_replica();
+            warmed_publish = publishes.load();
             core.warm_caches(*replicas[warmed]);
             in_use.store(-1);
             ++warm_ups;
+            if (k >= warmup && warm_ns.size() < 4 * ticks) warm_ns.push_back(elapsed_ns(w0, Clock::now()));
             return warmed;
           },
           [] { return false; });
@@ -187,13 +197,17 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
     for (int p = 0; p < probes; ++p) inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
     const auto a = Clock::now();
     const int idx = take_replica();
+    const bool on_warmed = publishes.load() == warmed_publish;
     const bool due = core.tick(k, t, *replicas[idx], meta[idx].time,
                                std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
                                std::span<haptics::ProbeTickResult>(results.data(), probes), contacts);
     in_use.store(-1);
     const auto b = Clock::now();
     if (due) queue.push(core.request());
-    if (k >= warmup) tick_ns.push_back(elapsed_ns(a, b));
+    if (k >= warmup) {
+      tick_ns.push_back(elapsed_ns(a, b));
+      (on_warmed ? tick_warmed_ns : tick_unwarmed_ns).push_back(elapsed_ns(a, b));
+    }
   }
   // Let the last steps finish, then stop.
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -204,6 +218,9 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   f.steps = step_ns.size();
   f.merged = merged;
   f.warm_ups = warm_ups;
+  f.tick_warmed = latency_of(tick_warmed_ns);
+  f.tick_unwarmed = latency_of(tick_unwarmed_ns);
+  f.warm = latency_of(warm_ns);
   f.step = latency_of(step_ns);
   return f;
 }

@@ -40,6 +40,10 @@ struct ThreadedFigures {
   Latency tick, step;
   std::size_t steps = 0, merged = 0;
   std::size_t warm_ups = 0;  ///< warm-ups run before the timed ticks and between them
+  /// The timed ticks split by the replica they read: the one warmed last
+  /// during the spin, or one published after that warm-up (or never warmed).
+  Latency tick_warmed, tick_unwarmed;
+  Latency warm;  ///< each warm-up between timed ticks (at most 4 per tick kept)
 };
 struct ThreadedPacing {
   bool level = true;
