@@ -687,9 +687,12 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     }
 
     // ---- Contact queries: every method on the same points in the same order.
-    // local: what the tick runs (query_contact; "in contact" = the last
+    // local: query_contact, the contact query ("in contact" = the last
     // answer lay below the undeformed surface, as the tick's height check
-    // says on a surface at rest); tree_local: the tree's local search alone.
+    // says on a surface at rest); track: track_contact with the same verdict,
+    // what the haptic tick calls (query_contact out of contact; in contact
+    // the walk, or the proxy where the walk declines); tree_local: the
+    // tree's local search alone.
     std::array<collision::ContactCursor, kMaxProbes> contact_cursors{};
     std::array<bool, kMaxProbes> touching{};
     std::array<collision::SearchCursor, kMaxProbes> cursors{};
@@ -701,6 +704,16 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       const auto ca = collision::query_contact(mesh_ref, tree, q, contact_cursors[p], touching[p]);
       touching[p] = ca.surface.triangle != kNoIndex && ca.surface.offset < 0;
       local_walks += ca.path == collision::ContactPath::Walk;
+      return Answer{ca.nearest_vertex, (mesh_ref.positions[ca.nearest_vertex] - q).squaredNorm(), ca.surface.point};
+    };
+    std::array<collision::ContactCursor, kMaxProbes> track_cursors{};
+    std::array<bool, kMaxProbes> track_touching{};
+    std::size_t track_walks = 0, track_proxies = 0;
+    auto track = [&](int p, const Vec3& q) {
+      const auto ca = collision::track_contact(mesh_ref, tree, q, track_cursors[p], track_touching[p]);
+      track_touching[p] = ca.surface.triangle != kNoIndex && ca.surface.offset < 0;
+      track_walks += ca.path == collision::ContactPath::Walk;
+      track_proxies += ca.path == collision::ContactPath::Proxy;
       return Answer{ca.nearest_vertex, (mesh_ref.positions[ca.nearest_vertex] - q).squaredNorm(), ca.surface.point};
     };
     auto tree_local = [&](int p, const Vec3& q) {
@@ -730,6 +743,10 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     std::map<std::string, std::vector<double>> ns;
     ns["local"] = time_queries(paths, probes, 0, plan.warmup, 1, local, a_local);
     const double walk_share = static_cast<double>(local_walks) / static_cast<double>(paths.ticks * probes);
+    std::vector<Answer> a_track;
+    ns["track"] = time_queries(paths, probes, 0, plan.warmup, 1, track, a_track);
+    const double track_walk_share = static_cast<double>(track_walks) / static_cast<double>(paths.ticks * probes);
+    const double track_proxy_share = static_cast<double>(track_proxies) / static_cast<double>(paths.ticks * probes);
     ns["tree_local"] = time_queries(paths, probes, 0, plan.warmup, 1, tree_local, a_tree_local);
     ns["full"] = time_queries(paths, probes, 0, plan.warmup, 1, full, a_full);
     ns["cgal"] = time_queries(paths, probes, 0, plan.warmup, 1, cgal_plain, a_cgal);
@@ -791,7 +808,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     std::map<std::string, Latency> lat;
     for (auto& [method, v] : ns) lat[method] = bench::latency_of(v);
     const Latency ours = lat["local"];
-    for (const char* method : {"local", "tree_local", "full", "cgal", "cgal_hint", "brute"}) {
+    for (const char* method : {"local", "track", "tree_local", "full", "cgal", "cgal_hint", "brute"}) {
       if (!ns.count(method)) {
         QueryRow q{mc.name, V, probes, method, {}, brute_note};
         res.queries.push_back(q);
@@ -811,6 +828,9 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         std::snprintf(note, sizeof note,
                       "walk %.1f%%; %zu points differ from full by > 1 nm; |ours-cgal| p99 %.1f max %.1f um",
                       100 * walk_share, local_differ, gap_um.p99_us, gap_um.max_us);
+      else if (q.method == "track")
+        std::snprintf(note, sizeof note, "the tick's query: walk %.1f%%, proxy %.1f%%", 100 * track_walk_share,
+                      100 * track_proxy_share);
       else if (q.method == "tree_local")
         std::snprintf(note, sizeof note, "%zu differ from full; nearest_local alone p50 %.3f p99 %.3f",
                       tree_local_differ, lat_local_only.p50_us, lat_local_only.p99_us);
@@ -838,6 +858,10 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         r["walk_fraction"] = walk_share;
         r["distance_to_cgal_point_p99_um"] = gap_um.p99_us;
         r["distance_to_cgal_point_max_um"] = gap_um.max_us;
+      }
+      if (q.method == "track") {
+        r["walk_fraction"] = track_walk_share;
+        r["proxy_fraction"] = track_proxy_share;
       }
       if (q.method == "tree_local") {
         r["differ_from_full"] = tree_local_differ;
@@ -901,15 +925,19 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock, const Opt
   }
 
   // Contact queries, with ratios to ours and the 3x target on the cgal_hint rows.
-  std::printf("\n== Contact query, per probe query, us (x = method / local; local = query_contact as the tick runs "
-              "it: in-contact walk from the last triangle, else nearest_local + locate_surface_point; tree_local = "
-              "nearest_local + locate_surface_point; full = nearest + locate_surface_point; brute = "
-              "nearest_brute_force + locate_surface_point; cgal = AABB_tree::closest_point)\n");
+  std::printf("\n== Contact query, per probe query, us (x = method / local; local = query_contact: in-contact walk "
+              "from the last triangle, else nearest_local + locate_surface_point; track = track_contact, what the "
+              "haptic tick calls: query_contact out of contact, in contact the walk or, where the walk declines, the "
+              "proxy slid along the surface; tree_local = nearest_local + locate_surface_point; full = nearest + "
+              "locate_surface_point; brute = nearest_brute_force + locate_surface_point; cgal = "
+              "AABB_tree::closest_point)\n");
   std::printf("%-40s %9s %2s %-10s %7s %8s %8s %8s %8s %6s %6s  %s\n", "mesh", "vertices", "p", "method", "samples",
               "p50", "p99", "p99.9", "max", "x p50", "x p99", "check / target");
   const QueryRow* local = nullptr;
+  const QueryRow* track = nullptr;
   for (const auto& q : r.queries) {
     if (q.method == "local") local = &q;
+    if (q.method == "track") track = &q;
     if (q.lat.samples == 0) {
       std::printf("%-40s %9zu %2d %-10s %s\n", q.mesh.c_str(), q.vertices, q.probes, q.method.c_str(),
                   q.note.c_str());
@@ -921,6 +949,12 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock, const Opt
     if (q.method == "cgal_hint") {
       note += std::string(note.empty() ? "" : "; ") + "target x >= 3 at p50 and p99: " +
               verdict(x50 >= kTargetQuerySpeedup && x99 >= kTargetQuerySpeedup);
+      if (track && track->mesh == q.mesh && track->probes == q.probes && track->lat.samples > 0) {
+        char t[96];
+        std::snprintf(t, sizeof t, "; against track x %.2f at p50, %.2f at p99", q.lat.p50_us / track->lat.p50_us,
+                      q.lat.p99_us / track->lat.p99_us);
+        note += t;
+      }
     }
     std::printf("%-40s %9zu %2d %-10s %7zu %8.3f %8.3f %8.3f %8.2f %6.2f %6.2f  %s\n", q.mesh.c_str(), q.vertices,
                 q.probes, q.method.c_str(), q.lat.samples, q.lat.p50_us, q.lat.p99_us, q.lat.p999_us, q.lat.max_us,
@@ -1028,8 +1062,16 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock, const Opt
       const auto& h = r.queries[j];
       if (h.method != "cgal_hint") continue;
       const double x50 = h.lat.p50_us / l.lat.p50_us, x99 = h.lat.p99_us / l.lat.p99_us;
-      std::printf("  %-40s %d probe%s: p50 %.2fx  p99 %.2fx  %s\n", l.mesh.c_str(), l.probes, l.probes > 1 ? "s" : " ",
+      std::printf("  %-40s %d probe%s: p50 %.2fx  p99 %.2fx  %s", l.mesh.c_str(), l.probes, l.probes > 1 ? "s" : " ",
                   x50, x99, verdict(x50 >= kTargetQuerySpeedup && x99 >= kTargetQuerySpeedup));
+      for (std::size_t k = i; k < j; ++k) {
+        const auto& t = r.queries[k];
+        if (t.method != "track" || t.lat.samples == 0) continue;
+        const double t50 = h.lat.p50_us / t.lat.p50_us, t99 = h.lat.p99_us / t.lat.p99_us;
+        std::printf("   (the tick's track_contact: p50 %.2fx  p99 %.2fx  %s)", t50, t99,
+                    verdict(t50 >= kTargetQuerySpeedup && t99 >= kTargetQuerySpeedup));
+      }
+      std::printf("\n");
     }
   }
   std::printf("full-mesh pass >= %.0f%% of measured copy bandwidth:\n", 100 * kTargetCopyFraction);
