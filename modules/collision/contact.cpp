@@ -625,27 +625,36 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
     commit_walk(mesh, probe, sp, nearest, cursor, ans);
     return ans;
   }
-  // Declined: the proxy stays while the probe is within the cone of half
-  // angle atan(kProxyCone) below it; beyond, it slides along the surface
-  // towards the probe's side by the excess, but no more than kProxyChase
-  // times as far as the probe moved across the normal this tick (so it
-  // cannot run away where the probe is deeper than the centre of
-  // curvature), never leaving the surface.
+  // Declined. Where the walk answered, only farther from the proxy than
+  // the foot can have moved, the proxy lags behind the foot (it held in
+  // its cone during a deeper press, below): it chases the foot along the
+  // surface, no more than kProxyChase times as far as the probe moved
+  // across the normal this tick, and the walk takes over again once the
+  // foot is within its reach (step 1), so the contact point never jumps.
+  // Where the walk did not answer, the proxy stays while the probe is
+  // within the cone of half angle atan(kProxyCone) below it; beyond, it
+  // slides along the surface towards the probe's side by the excess, with
+  // the same limit (so it cannot run away where the probe is deeper than
+  // the centre of curvature), never leaving the surface.
   const Vec3 pn = proxy_weights[0] * mesh.normals[pt[0]] + proxy_weights[1] * mesh.normals[pt[1]] +
                   proxy_weights[2] * mesh.normals[pt[2]];
   const double pn_len = pn.norm();
   Vec3 move = Vec3::Zero();
   if (pn_len > 0 && std::isfinite(pn_len)) {
     const Vec3 n = pn / pn_len;
-    const Vec3 rel = probe - proxy_point;
-    const double depth = -rel.dot(n);
-    const Vec3 lateral = rel + depth * n;
-    const double lateral_len = lateral.norm();
-    const double excess = lateral_len - kProxyCone * std::max(depth, 0.0);
-    if (excess > 0 && lateral_len > 0) {
-      const Vec3 motion = probe - last_probe;
-      const double across = (motion - motion.dot(n) * n).norm();
-      move = (std::min(excess, kProxyChase * across) / lateral_len) * lateral;
+    const Vec3 motion = probe - last_probe;
+    const double across = (motion - motion.dot(n) * n).norm();
+    if (sp.triangle != kNoIndex) {
+      const Vec3 to_foot = sp.point - proxy_point;
+      const double gap = to_foot.norm();
+      if (gap > 0) move = (std::min(gap, kProxyChase * across) / gap) * to_foot;
+    } else {
+      const Vec3 rel = probe - proxy_point;
+      const double depth = -rel.dot(n);
+      const Vec3 lateral = rel + depth * n;
+      const double lateral_len = lateral.norm();
+      const double excess = lateral_len - kProxyCone * std::max(depth, 0.0);
+      if (excess > 0 && lateral_len > 0) move = (std::min(excess, kProxyChase * across) / lateral_len) * lateral;
     }
   }
   const SurfacePoint slid = slide_surface_point(mesh, proxy_triangle, proxy_weights, move, probe);

@@ -159,7 +159,8 @@ SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, 
 inline constexpr double kProxyCone = 0.25;
 /// Beyond that cone the proxy moves towards the probe's side at most
 /// kProxyChase times as far as the probe moved across the proxy's normal
-/// (it catches up with a sliding probe, yet stops when the probe stops).
+/// (it catches up with a sliding probe, yet stops when the probe stops);
+/// the same limit holds while it chases the walk's answer.
 inline constexpr double kProxyChase = 2.0;
 
 /// The contact query with a god-object proxy, for the haptic tick. When not
@@ -172,13 +173,17 @@ inline constexpr double kProxyChase = 2.0;
 ///     kProxyTolerance of the proxy (within half the focal distance the foot
 ///     of the interpolated normal moves at most twice as far as the probe; a
 ///     farther answer is another foot: another sheet, a fold, another root);
-///  2. otherwise the proxy stays while the probe lies within the cone of
-///     half angle atan(kProxyCone) around the proxy's inward normal, and
-///     beyond it slides along the surface (slide_surface_point) towards the
-///     probe's side by the excess, but at most kProxyChase times as far as
-///     the probe moved across that normal since the last answer (so it
-///     cannot run away where the probe is deeper than the local centre of
-///     curvature);
+///  2. otherwise, where the walk answered but farther away (the proxy was
+///     left behind the foot, holding in its cone during a deeper press), the
+///     proxy slides along the surface (slide_surface_point) towards the
+///     walk's point, at most kProxyChase times as far as the probe moved
+///     across the proxy's normal since the last answer, so that 1. takes
+///     over again without a jump once the foot is within its reach; where
+///     the walk did not answer, the proxy stays while the probe lies within
+///     the cone of half angle atan(kProxyCone) around the proxy's inward
+///     normal, and beyond it slides towards the probe's side by the excess,
+///     with the same limit (so it cannot run away where the probe is deeper
+///     than the local centre of curvature);
 ///  3. from a new triangle the walk is tried again without the jump test
 ///     (Walk, same distance test); otherwise the proxy is the answer (path
 ///     Proxy; nearest_vertex is its triangle's corner of largest weight);

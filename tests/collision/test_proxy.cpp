@@ -4,7 +4,8 @@
 // surface; a press past the focal distance keeps its contact point (depth =
 // press distance), a press through a small sphere never moves the contact to
 // its other side (where query_contact alone lets go), and the
-// walk takes over again once the probe is back within its range.
+// walk takes over again once the probe is back within its range, also after
+// the proxy was left behind by a deep press that slid.
 
 #include "collision/contact.h"
 #include "common/test_support.h"
@@ -144,6 +145,62 @@ TEST(Proxy, PressPastTheFocalDistanceKeepsTheContactPoint) {
   EXPECT_GT(walk, 50);
   EXPECT_GT(proxy, 150);
   EXPECT_GT(walk_back, 10);
+}
+
+TEST(Proxy, LeftBehindByADeepPressItRejoinsTheWalkWithoutAJump) {
+  // Radial normals (the walk answers down to R/2). The probe presses 0.7 R
+  // deep, slides 50 ticks there (the proxy holds in its cone, so it stays
+  // behind), rises to 0.1 R while sliding on, and slides 300 more ticks
+  // there, along a great circle at 30 um of surface a tick. Once the walk
+  // answers again the proxy chases the foot and the walk takes over: the
+  // last 100 ticks are walks, whose point is the foot (on the ray from the
+  // centre through the probe, for radial normals). A proxy that stayed at
+  // its cone's edge would trail the foot by 0.025 R (1.25 mm) for ever.
+  // No tick moves the contact point more than kProxyChase times as far as
+  // the probe moved.
+  const double r = 0.05;
+  auto m = mesh::make_sphere(20000, r);
+  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  const VertexTree tree(m.positions);
+  const Vec3 e1 = Vec3(0.3, -0.5, 0.8).normalized();
+  const Vec3 e2 = e1.unitOrthogonal();
+  const double dtheta = 30e-6 / r;  // rad a tick
+  ContactCursor cursor;
+  bool in = false;
+  Vec3 last_probe = Vec3::Zero(), last_point = Vec3::Zero();
+  int walks_at_end = 0;
+  double off_foot = 0;  // largest angle (rad) between the point and the probe in the last 100 ticks
+  constexpr int kPress = 100, kDeep = 50, kRise = 50, kShallow = 300;
+  constexpr int kTicks = kPress + kDeep + kRise + kShallow;
+  for (int k = 0; k <= kTicks; ++k) {
+    double d = 0, theta = 0;
+    if (k <= kPress) {
+      d = -1e-4 + (0.7 * r + 1e-4) * k / kPress;
+    } else if (k <= kPress + kDeep) {
+      d = 0.7 * r;
+      theta = dtheta * (k - kPress);
+    } else {
+      const int j = k - kPress - kDeep;  // ticks since the slide at 0.7 R ended
+      d = j <= kRise ? 0.7 * r - 0.6 * r * j / kRise : 0.1 * r;
+      theta = dtheta * (k - kPress);
+    }
+    const Vec3 probe = (r - d) * (std::cos(theta) * e1 + std::sin(theta) * e2);
+    const ContactAnswer a = track_contact(m, tree, probe, cursor, in);
+    ASSERT_NE(a.surface.triangle, kNoIndex) << k;
+    in = a.surface.offset < 0;
+    if (k > 1) {
+      ASSERT_TRUE(in) << k;
+      EXPECT_LE((a.surface.point - last_point).norm(), kProxyChase * (probe - last_probe).norm() + 1e-9) << k;
+    }
+    if (k > kTicks - 100) {
+      walks_at_end += a.path == ContactPath::Walk;
+      off_foot = std::max(off_foot, (a.surface.point.normalized() - probe.normalized()).norm());
+    }
+    last_probe = probe;
+    last_point = a.surface.point;
+  }
+  EXPECT_EQ(walks_at_end, 100);
+  EXPECT_LT(off_foot, 1e-9) << "the contact point trails the foot by " << off_foot * r * 1e3 << " mm";
 }
 
 TEST(Proxy, NeverCrossesToTheOtherSide) {
