@@ -3,6 +3,7 @@
 #include "collision/contact.h"
 #include "common/test_support.h"
 #include "mesh/generate.h"
+#include "radial_sphere.h"
 #include "mesh/io.h"
 
 #include <Eigen/Geometry>
@@ -167,8 +168,7 @@ TEST(Contact, SphereWithRadialNormalsIsExactlyRadial) {
   // solution of P = C + t N lies on the ray through P: the point is
   // |C| P/|P| with R - |C| at most the sagitta h^2 / 8R, the normal P/|P|.
   const double radius = 0.05;
-  auto m = mesh::make_sphere(10000, radius);
-  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  auto m = test::radial_sphere(10000, radius);
   double h = 0;
   for (const auto& t : m.triangles)
     for (int k = 0; k < 3; ++k) h = std::max(h, (m.positions[t[k]] - m.positions[t[(k + 1) % 3]]).norm());
@@ -420,8 +420,7 @@ TEST(ContactWalk, DeclinesAboveTheSurfaceBeyondTheBorderAndPastHalfTheFocalDista
   // A sphere with radial normals: |n_a - n_b| = |p_a - p_b| / R on every
   // edge, so the focal distance is R and the walk answers down to R / 2 deep.
   const double radius = 0.05;
-  auto m = mesh::make_sphere(5000, radius);
-  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  auto m = test::radial_sphere(5000, radius);
   std::mt19937 rng(9);
   std::normal_distribution<double> g;
   for (int i = 0; i < 100; ++i) {

@@ -10,6 +10,7 @@
 #include "collision/contact.h"
 #include "common/test_support.h"
 #include "mesh/generate.h"
+#include "radial_sphere.h"
 
 #include <Eigen/Geometry>
 
@@ -72,8 +73,7 @@ TEST(Slide, OnAPlaneIsTheTangentialMotionAndStopsAtTheBorder) {
 
 TEST(Slide, OnASphereStaysOnTheSurfaceAndIgnoresNormalMotion) {
   const double r = 0.05;
-  auto m = mesh::make_sphere(20000, r);
-  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  auto m = test::radial_sphere(20000, r);
   std::mt19937 rng(3);
   std::normal_distribution<double> g;
   for (int k = 0; k < 200; ++k) {
@@ -105,8 +105,7 @@ TEST(Proxy, PressPastTheFocalDistanceKeepsTheContactPoint) {
   // the depth is the press distance all the way to 1.8 R (past the centre),
   // and on the way back the walk answers again at the same point.
   const double r = 0.05;
-  auto m = mesh::make_sphere(20000, r);
-  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  auto m = test::radial_sphere(20000, r);
   const VertexTree tree(m.positions);
   const Vec3 dir = Vec3(0.3, -0.5, 0.8).normalized();
   ContactCursor cursor;
@@ -159,8 +158,7 @@ TEST(Proxy, LeftBehindByADeepPressItRejoinsTheWalkWithoutAJump) {
   // No tick moves the contact point more than kProxyChase times as far as
   // the probe moved.
   const double r = 0.05;
-  auto m = mesh::make_sphere(20000, r);
-  for (std::size_t i = 0; i < m.vertex_count(); ++i) m.normals[i] = m.positions[i].normalized();
+  auto m = test::radial_sphere(20000, r);
   const VertexTree tree(m.positions);
   const Vec3 e1 = Vec3(0.3, -0.5, 0.8).normalized();
   const Vec3 e2 = e1.unitOrthogonal();
