@@ -205,8 +205,9 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
     const auto b = Clock::now();
     if (due) queue.push(core.request());
     if (k >= warmup) {
-      tick_ns.push_back(elapsed_ns(a, b));
-      (on_warmed ? tick_warmed_ns : tick_unwarmed_ns).push_back(elapsed_ns(a, b));
+      const double ns = elapsed_ns(a, b);
+      tick_ns.push_back(ns);
+      (on_warmed ? tick_warmed_ns : tick_unwarmed_ns).push_back(ns);
     }
   }
   // Let the last steps finish, then stop.
