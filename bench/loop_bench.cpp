@@ -18,8 +18,9 @@
 // instead of sleeping to the deadline, which hides wake-up latency. By
 // default the workbench's choice (haptics::haptic_spin: 40% of the
 // period on a CPU kept for the haptic thread, PALPA_HAPTIC_SPIN to change).
-// --no-warm: no warm-up run of the last tick at the spin's start
-// (LoopConfig::warm_before_tick, on by default as in the workbench).
+// --no-warm: no warm-up run of the last tick during the spin, nor the held
+// one before the tick (LoopConfig::warm_before_tick, on by default as in the
+// workbench).
 // --as-built-order: keep make_organ's vertex order instead of the spatial
 // order (mesh::reorder_spatially) every loaded organ gets.
 // --no-placement: no CPU kept for the haptic thread (haptics::reserve_haptic_cpu),
@@ -216,7 +217,8 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
     std::printf("  spin: %s\n", spin.note.c_str());
   c.warm_before_tick = o.warm;
   if (c.spin_us > 0)
-    std::printf("  warm-up of the last tick at the spin's start: %s\n", o.warm ? "on" : "off (--no-warm)");
+    std::printf("  warm-up of the last tick during the spin, and held for the tick at its deadline: %s\n",
+                o.warm ? "on" : "off (--no-warm)");
   haptics::HapticLoop loop(scene.mesh, scene.materials, {}, c, std::move(probes));
 
   pid_t load_pid = load ? start_load() : -1;

@@ -86,6 +86,7 @@ struct Options {
   bool threaded = true;  // also the tick with the step on another thread (3 probes)
   bool threaded_both = false;  // ... with both replicas stepped (before issue 8)
   bool threaded_warm = true;   // ... warming during the spin before each tick, as HapticLoop
+  bool threaded_hold = true;   // ... and reading the replica held from the warm-up at the deadline
   bool spatial_order = true;   // mesh::reorder_spatially, as load_organ numbers every organ
   std::string only;      // only meshes whose name contains this
 };
@@ -107,6 +108,8 @@ void print_usage() {
       "  --no-threaded      skip the paced run with the deformation step on another thread\n"
       "  --no-warm          in that run, spin before each tick without the loop's warm-up\n"
       "                     (LoopConfig::warm_before_tick)\n"
+      "  --no-hold          in that run, no held warm-up at the spin's deadline: the tick takes the\n"
+      "                     current replica itself (the warm-up as before the hold, for comparison)\n"
       "  --as-built-order   keep each mesh's vertex order as generated or read (before issue 8's\n"
       "                     spatial order; load_organ numbers organs along a Hilbert curve)\n"
       "  --only TEXT        only the meshes whose name contains TEXT (=NAME: only the mesh NAME)\n",
@@ -157,6 +160,8 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       o.threaded = false;
     } else if (a == "--no-warm") {
       o.threaded_warm = false;
+    } else if (a == "--no-hold") {
+      o.threaded_hold = false;
     } else if (a == "--as-built-order") {
       o.spatial_order = false;
     } else if (a == "--only") {
@@ -590,6 +595,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         pacing.level = !opt.threaded_both;
         pacing.spin_us = haptics::plan_haptic_spin(1 / kTickPeriod, 0, "").spin_us;
         pacing.warm = opt.threaded_warm;
+        pacing.hold = opt.threaded_hold;
         ThreadRow th{mc.name, V, bench::measure_threaded(model, paths, probes, plan.warmup, plan.ticks, pacing)};
         const double warm_per_tick =
             static_cast<double>(th.f.warm_ups) / static_cast<double>(std::max<std::size_t>(1, plan.warmup + plan.ticks));
@@ -597,11 +603,12 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
                     "3 probes: tick p50 %.3f p99 %.3f p99.9 %.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged)\n",
                     mc.name.c_str(), pacing.spin_us, warm_per_tick, th.f.tick.p50_us, th.f.tick.p99_us,
                     th.f.tick.p999_us, th.f.step.p50_us * 1e-3, th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged);
-        std::printf("[%s] threaded, 3 probes: ticks on the replica warmed last %zu p50 %.3f p99 %.3f us, on one "
-                    "published after it %zu p50 %.3f p99 %.3f us; a warm-up p50 %.3f p99 %.3f us\n",
-                    mc.name.c_str(), th.f.tick_warmed.samples, th.f.tick_warmed.p50_us, th.f.tick_warmed.p99_us,
-                    th.f.tick_unwarmed.samples, th.f.tick_unwarmed.p50_us, th.f.tick_unwarmed.p99_us, th.f.warm.p50_us,
-                    th.f.warm.p99_us);
+        std::printf("[%s] threaded, 3 probes: ticks on the replica held from the last warm-up %zu p50 %.3f p99 %.3f us "
+                    "(%zu with another published during the hold), without a held warm-up %zu p50 %.3f p99 %.3f us; "
+                    "a warm-up p50 %.3f p99 %.3f us\n",
+                    mc.name.c_str(), th.f.tick_held.samples, th.f.tick_held.p50_us, th.f.tick_held.p99_us,
+                    th.f.held_behind, th.f.tick_taken.samples, th.f.tick_taken.p50_us, th.f.tick_taken.p99_us,
+                    th.f.warm.p50_us, th.f.warm.p99_us);
         json t = base;
         t.update(latency_json(th.f.tick));
         t["suite"] = "tick_threaded";
@@ -611,8 +618,9 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         t["merged"] = th.f.merged;
         t["spin_us"] = pacing.spin_us;
         t["warm_ups_per_tick"] = warm_per_tick;
-        t["on_warmed_replica"] = latency_json(th.f.tick_warmed);
-        t["on_replica_published_after_warm_up"] = latency_json(th.f.tick_unwarmed);
+        t["on_held_replica"] = latency_json(th.f.tick_held);
+        t["held_behind"] = th.f.held_behind;
+        t["without_held_warm_up"] = latency_json(th.f.tick_taken);
         t["warm_up"] = latency_json(th.f.warm);
         res.records.push_back(t);
         res.threaded.push_back(th);
@@ -1004,7 +1012,10 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock, const Opt
   if (!r.threaded.empty()) {
     std::printf("\n== Haptic tick with the deformation step on another thread (LoopCore::tick paced at 1 kHz after "
                 "a spin, %s; the other thread steps one replica and levels the other, as HapticLoop), 3 probes, us\n",
-                opt.threaded_warm ? "warming the tick's data during it as HapticLoop" : "without the warm-up (--no-warm)");
+                !opt.threaded_warm  ? "without the warm-up (--no-warm)"
+                : opt.threaded_hold ? "warming the tick's data during it and reading the replica held from the "
+                                      "last warm-up, as HapticLoop"
+                                    : "warming the tick's data during it, without the held warm-up (--no-hold)");
     std::printf("%-40s %9s %8s %8s %8s %8s %10s %10s %7s  %s\n", "mesh", "vertices", "p50", "p99", "p99.9", "max",
                 "step p50", "step p99", "merged", "target");
     const ThreadRow* small = nullptr;

@@ -106,7 +106,6 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   };
   Meta meta[2];
   std::atomic<int> current{0}, in_use{-1};
-  std::atomic<std::uint64_t> publishes{0};  // replicas made current so far (for the split by warm-up)
   std::atomic<bool> stop{false};
   SpscQueue<haptics::DeformRequest> queue(64);
   std::vector<double> step_ns;
@@ -133,7 +132,6 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
       replicas[other]->take_dirty_ranges();
       meta[other].time = r.time;
       current.store(other);
-      publishes.fetch_add(1);
       while (in_use.load() == cur) std::this_thread::sleep_for(std::chrono::microseconds(20));
       if (level) {
         haptics::apply_deform_edits(*replicas[cur], r.edits);
@@ -156,14 +154,11 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   std::array<haptics::ProbeTickInput, haptics::kMaxProbes> inputs{};
   std::array<haptics::ProbeTickResult, haptics::kMaxProbes> results{};
   haptics::ContactSet contacts;
-  std::vector<double> tick_ns, tick_warmed_ns, tick_unwarmed_ns, warm_ns;
+  std::vector<double> tick_ns, tick_held_ns, tick_taken_ns, warm_ns;
   tick_ns.reserve(ticks);
-  tick_warmed_ns.reserve(ticks);
-  tick_unwarmed_ns.reserve(ticks);
-  std::size_t warm_ups = 0;
-  // The replica last warmed, as the count of publishes when it was taken
-  // (none yet: the largest count).
-  std::uint64_t warmed_publish = ~std::uint64_t{0};
+  tick_held_ns.reserve(ticks);
+  tick_taken_ns.reserve(ticks);
+  std::size_t warm_ups = 0, held_behind = 0;
   // Takes the current replica (announce, then re-check), as HapticLoop does.
   auto take_replica = [&] {
     int idx;
@@ -176,28 +171,28 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   const std::size_t total = std::min(paths.ticks, warmup + ticks);
   std::int64_t next = clock.now_ns() + period_ns;
   for (std::size_t k = 0; k < total; ++k) {
+    int held = -1;  // the replica held from the last warm-up for this tick
     if (pacing.warm && spin_ns > 0 && core.can_warm()) {
-      haptics::warm_during_spin(
-          clock, next, spin_ns, [&] { return current.load(); },
-          [&] {
-            const auto w0 = Clock::now();
-            const int warmed = take_replica();
-            warmed_publish = publishes.load();
-            core.warm_caches(*replicas[warmed]);
-            in_use.store(-1);
-            ++warm_ups;
-            if (k >= warmup && warm_ns.size() < 4 * ticks) warm_ns.push_back(elapsed_ns(w0, Clock::now()));
-            return warmed;
-          },
-          [] { return false; });
+      // A warm-up: `hold` keeps the replica taken for the tick.
+      auto warm_up = [&](bool hold) {
+        const auto w0 = Clock::now();
+        const int warmed = take_replica();
+        core.warm_caches(*replicas[warmed]);
+        if (!hold) in_use.store(-1);
+        ++warm_ups;
+        if (k >= warmup && warm_ns.size() < 4 * ticks) warm_ns.push_back(elapsed_ns(w0, Clock::now()));
+        return warmed;
+      };
+      held = haptics::warm_during_spin(
+          clock, next, spin_ns, [&] { return current.load(); }, [&] { return warm_up(false); },
+          [&] { return pacing.hold ? warm_up(true) : -1; }, [] { return false; });
     }
     clock.sleep_until(next, spin_ns);
     next += period_ns;
     const double t = static_cast<double>(k) * period;
     for (int p = 0; p < probes; ++p) inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
     const auto a = Clock::now();
-    const int idx = take_replica();
-    const bool on_warmed = publishes.load() == warmed_publish;
+    const int idx = held >= 0 ? held : take_replica();
     const bool due = core.tick(k, t, *replicas[idx], meta[idx].time,
                                std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
                                std::span<haptics::ProbeTickResult>(results.data(), probes), contacts);
@@ -207,7 +202,8 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
     if (k >= warmup) {
       const double ns = elapsed_ns(a, b);
       tick_ns.push_back(ns);
-      (on_warmed ? tick_warmed_ns : tick_unwarmed_ns).push_back(ns);
+      (held >= 0 ? tick_held_ns : tick_taken_ns).push_back(ns);
+      if (held >= 0 && current.load() != held) ++held_behind;
     }
   }
   // Let the last steps finish, then stop.
@@ -219,8 +215,9 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   f.steps = step_ns.size();
   f.merged = merged;
   f.warm_ups = warm_ups;
-  f.tick_warmed = latency_of(tick_warmed_ns);
-  f.tick_unwarmed = latency_of(tick_unwarmed_ns);
+  f.tick_held = latency_of(tick_held_ns);
+  f.tick_taken = latency_of(tick_taken_ns);
+  f.held_behind = held_behind;
   f.warm = latency_of(warm_ns);
   f.step = latency_of(step_ns);
   return f;

@@ -40,15 +40,23 @@ struct ThreadedFigures {
   Latency tick, step;
   std::size_t steps = 0, merged = 0;
   std::size_t warm_ups = 0;  ///< warm-ups run before the timed ticks and between them
-  /// The timed ticks split by the replica they read: the one warmed last
-  /// during the spin, or one published after that warm-up (or never warmed).
-  Latency tick_warmed, tick_unwarmed;
+  /// The timed ticks split by the replica they read: the one held from the
+  /// warm-up at the spin's deadline, or (no held warm-up: a late wake, or a
+  /// warm-up that overran) the current one, taken by the tick itself.
+  Latency tick_held, tick_taken;
+  /// Held ticks whose replica was no longer the current one (the
+  /// deformation thread published another during the hold).
+  std::size_t held_behind = 0;
   Latency warm;  ///< each warm-up between timed ticks (at most 4 per tick kept)
 };
 struct ThreadedPacing {
   bool level = true;
   double spin_us = 400;  ///< the workbench's spin at 1 kHz with a CPU kept for the haptic thread
   bool warm = true;
+  /// With `warm`: the held warm-up at the spin's deadline, whose replica the
+  /// tick reads (false: none there, the tick takes the current replica, as
+  /// before the hold).
+  bool hold = true;
 };
 ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionModel>& model, const ProbePaths& paths,
                                  int probes, std::size_t warmup, std::size_t ticks, const ThreadedPacing& pacing);

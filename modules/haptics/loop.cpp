@@ -678,15 +678,19 @@ void HapticLoop::haptic_main() {
   };
   const bool warm = spin > 0 && config_.warm_before_tick;
   while (!stop_.load(std::memory_order_relaxed)) {
+    // The replica held from the last warm-up for this tick (-1: none).
+    int held = -1;
     if (warm && core_->can_warm()) {
       // From the spin's start until shortly before the tick: the last tick
       // again, into scratch, on the current replica (taken and left as the
       // tick does), and again whenever the deformation thread publishes
-      // another, so the tick reads from this CPU's caches. A few
-      // microseconds each, on a CPU that would only spin; none is started
-      // less than a quarter of the spin (at most 50 us) before the tick, so
-      // a late tick is not made later.
-      warm_during_spin(
+      // another; then once more at a quarter of the spin (at most 50 us)
+      // before the tick, on the replica the tick will read, which stays
+      // taken until the tick is done. So the tick reads from this CPU's
+      // caches, warmed moments before. A few microseconds each, on a CPU
+      // that would only spin; none is started later than that, so a late
+      // tick is not made later.
+      held = warm_during_spin(
           clock, next, spin, [this] { return current_.load(std::memory_order_acquire); },
           [&] {
             const int warmed = take_replica();
@@ -695,11 +699,23 @@ void HapticLoop::haptic_main() {
             warm_ups_.fetch_add(1, std::memory_order_release);
             return warmed;
           },
+          [&] {
+            const int taken = take_replica();
+            core_->warm_caches(*replicas_[taken]);
+            warm_ups_.fetch_add(1, std::memory_order_release);
+            return taken;
+          },
           [this] { return stop_.load(std::memory_order_relaxed); });
-      if (stop_.load(std::memory_order_relaxed)) break;
+      if (stop_.load(std::memory_order_relaxed)) {
+        in_use_.store(-1, std::memory_order_seq_cst);
+        break;
+      }
     }
     clock.sleep_until(next, spin);
-    if (stop_.load(std::memory_order_relaxed)) break;
+    if (stop_.load(std::memory_order_relaxed)) {
+      in_use_.store(-1, std::memory_order_seq_cst);
+      break;
+    }
     const std::int64_t start = clock.now_ns();
     const double t = static_cast<double>(start) * 1e-9;
     latency_hist_.record(start - next);
@@ -730,8 +746,8 @@ void HapticLoop::haptic_main() {
       inputs[i].read_ok = devices_[i]->read(inputs[i].sample);
     }
 
-    // Take the current model replica.
-    const int idx = take_replica();
+    // The model replica: the one held from the warm-up, else the current one.
+    const int idx = held >= 0 ? held : take_replica();
     const ReplicaMeta meta = meta_[idx];
     const bool due = core_->tick(tick, t, *replicas_[idx], meta.time, std::span<const ProbeTickInput>(inputs.data(), n),
                                  std::span<ProbeTickResult>(results.data(), n), contacts);

@@ -15,6 +15,8 @@
 // complete, unchanging model and never waits. The two halves are exactly
 // Session's (session.h); with every request made before the next tick (a
 // ManualClock test, or an unloaded machine) a live run equals Session::step.
+// (With a spin, "before the next tick" means before its held warm-up, up to
+// 50 us earlier: LoopConfig::warm_before_tick.)
 //
 // Every change to the running session (enable, clutch, mapping, probe add
 // and remove, shape function, force parameters, materials, reset) is a
@@ -81,9 +83,11 @@ struct LoopConfig {
   /// result), and again whenever the deformation thread publishes another
   /// (looked at every 10 us), so that the tick finds its data in this CPU's
   /// caches after the sleep and after a replica was written on another CPU.
-  /// None starts within a quarter of the spin (at most 50 us) of the tick,
-  /// and none before the first tick with a probe since start() or restore()
-  /// (there is no last tick to run again).
+  /// At a quarter of the spin (at most 50 us) before the tick, once more on
+  /// the current replica, which the tick then reads (held: a replica
+  /// published after it is read from the next tick on). None starts later
+  /// (haptics::warm_during_spin), and none before the first tick with a
+  /// probe since start() or restore() (there is no last tick to run again).
   bool warm_before_tick = true;
   /// Items per recorder queue; 0 (default): no recording. A recorder sets it
   /// (e.g. 1 << 16) and drains the queues often enough (LoopRecording::drain).
@@ -223,7 +227,9 @@ class HapticLoop {
   /// True once the haptic thread has applied the command (or at once when stopped).
   bool applied(CommandTicket t) const { return applied_.load(std::memory_order_acquire) >= t; }
   /// True once command t is applied and a deformation step made after it
-  /// is published (the haptic thread ticks against a model with its edits).
+  /// is published (the haptic thread ticks against a model with its edits
+  /// from the next tick, or the one after where the step was published
+  /// during that tick's held warm-up: LoopConfig::warm_before_tick).
   bool in_effect(CommandTicket t) const {
     return applied(t) && made_tick_.load(std::memory_order_acquire) >= applied_tick_.load(std::memory_order_acquire);
   }

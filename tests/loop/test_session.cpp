@@ -10,6 +10,7 @@
 #include "haptics/session.h"
 #include "haptics/loop.h"
 #include "haptics/loop_replay.h"
+#include "haptics/spin_warm.h"
 #include "mesh/generate.h"
 #include "bits.h"
 #include "fake_device.h"
@@ -363,30 +364,46 @@ struct LiveRig {
 // One tick of a started `loop` with a spin of `spin_us`, with the clock
 // stopped 1 us into the spin first: where `expect_warm`, a warm-up must run
 // there (and make no tick); otherwise the haptic thread is given 200 ms in
-// which a warm-up would show, and none may. Then the rest of the period
-// makes the tick.
-void tick_through_spin(HapticLoop& loop, test::ManualClock& clock, double spin_us, bool expect_warm) {
+// which a warm-up would show, and none may. With `stop_at_hold` the clock
+// then stops again at the spin's deadline (haptics::warm_deadline_ns before
+// the tick), where the held warm-up must run (where `expect_warm`). Then the
+// rest of the period makes the tick.
+void tick_through_spin(HapticLoop& loop, test::ManualClock& clock, double spin_us, bool expect_warm,
+                       bool stop_at_hold = false) {
   const std::int64_t period = test::period_ns(loop);
-  const std::int64_t into_spin = period - static_cast<std::int64_t>(spin_us * 1e3) + 1000;
-  const std::uint64_t tick = loop.ticks(), warm_ups = loop.warm_ups();
-  clock.advance(into_spin);
-  if (expect_warm) {
-    ASSERT_TRUE(clock.await([&] { return loop.warm_ups() > warm_ups; }, test::kLoopWaitTimeout))
-        << "no warm-up before tick " << tick;
-  } else {
-    EXPECT_FALSE(clock.await([&] { return loop.warm_ups() > warm_ups; }, std::chrono::milliseconds(200)))
-        << "a warm-up before tick " << tick;
+  const auto spin_ns = static_cast<std::int64_t>(spin_us * 1e3);
+  const std::int64_t into_spin = period - spin_ns + 1000;
+  const std::uint64_t tick = loop.ticks();
+  // Moves the clock by `by` ns, then checks for the warm-up it should start.
+  auto advance_expecting_warm_up = [&](std::int64_t by, const char* where) {
+    const std::uint64_t warm_ups = loop.warm_ups();
+    clock.advance(by);
+    if (expect_warm) {
+      ASSERT_TRUE(clock.await([&] { return loop.warm_ups() > warm_ups; }, test::kLoopWaitTimeout))
+          << "no warm-up " << where << " before tick " << tick;
+    } else {
+      EXPECT_FALSE(clock.await([&] { return loop.warm_ups() > warm_ups; }, std::chrono::milliseconds(200)))
+          << "a warm-up " << where << " before tick " << tick;
+    }
+    ASSERT_EQ(loop.ticks(), tick) << "the warm-up " << where << " made a tick";
+  };
+  ASSERT_NO_FATAL_FAILURE(advance_expecting_warm_up(into_spin, "at the spin's start"));
+  std::int64_t at = into_spin;
+  if (stop_at_hold) {
+    const std::int64_t hold = period - haptics::warm_deadline_ns(spin_ns);
+    ASSERT_NO_FATAL_FAILURE(advance_expecting_warm_up(hold - at, "at the deadline (held)"));
+    at = hold;
   }
-  ASSERT_EQ(loop.ticks(), tick) << "the warm-up made a tick";
-  clock.advance(period - into_spin);
+  clock.advance(period - at);
   ASSERT_TRUE(clock.await([&] { return loop.ticks() > tick && loop.deform_idle(); }, test::kLoopWaitTimeout))
       << "tick " << tick;
 }
 
 // The live loop, fed the script's positions and edits at the same ticks as
 // Session::step, gives the same bits; `spin_us` > 0 adds the haptic thread's
-// warm-up run of the last tick before each tick.
-void expect_loop_equals_session(double spin_us) {
+// warm-up run of the last tick before each tick, and `stop_at_hold` the held
+// warm-up at the spin's deadline, whose replica the tick then reads.
+void expect_loop_equals_session(double spin_us, bool stop_at_hold = false) {
   auto mesh = plane();
   const auto model = SessionModel::make(mesh, {}, core_config());
   const auto materials = deform::MaterialArrays::uniform(mesh->vertex_count(), material(kK0));
@@ -420,7 +437,7 @@ void expect_loop_equals_session(double spin_us) {
     if (tick == kMaterialMap) loop.set_materials(stiffness_map(*mesh));
     if (spin_us > 0 && tick > 0) {
       // The warm-up runs at the spin's start, then the tick.
-      ASSERT_NO_FATAL_FAILURE(tick_through_spin(loop, rig.clock, spin_us, true));
+      ASSERT_NO_FATAL_FAILURE(tick_through_spin(loop, rig.clock, spin_us, true, stop_at_hold));
     } else {
       ASSERT_TRUE(test::run_ticks(loop, rig.clock, 1));
     }
@@ -441,8 +458,9 @@ void expect_loop_equals_session(double spin_us) {
   EXPECT_EQ(rig.st[1].reads.load(), kRemove);
   EXPECT_EQ(rig.st[2].reads.load(), kTicks - kAdd);
   // One warm-up before every tick after the first with a spin (the clock
-  // then stands still until the tick's time), none without.
-  EXPECT_EQ(rig.loop->warm_ups(), spin_us > 0 ? kTicks - 1 : 0u);
+  // then stands still until the tick's time), a second (the held one) where
+  // the clock stopped at the deadline too, none without a spin.
+  EXPECT_EQ(rig.loop->warm_ups(), spin_us > 0 ? (stop_at_hold ? 2 : 1) * (kTicks - 1) : 0u);
 }
 
 TEST(Session, ThreadedLoopEqualsSessionStepBitForBit) { expect_loop_equals_session(0); }
@@ -450,6 +468,11 @@ TEST(Session, ThreadedLoopEqualsSessionStepBitForBit) { expect_loop_equals_sessi
 // The warm-up runs the last tick again on the replica the next tick reads,
 // on the haptic thread, between ticks: it must change no result and no state.
 TEST(Session, ThreadedLoopWithTheWarmUpEqualsSessionStepBitForBit) { expect_loop_equals_session(400); }
+
+// The held warm-up at the spin's deadline keeps its replica for the tick,
+// which reads it instead of taking the current one: with every step made
+// before it (as here), the same bits again.
+TEST(Session, ThreadedLoopWithTheHeldWarmUpEqualsSessionStepBitForBit) { expect_loop_equals_session(400, true); }
 
 // A warm-up that would start when the tick is (nearly) due is not run: it
 // would only make that tick later. Here the clock jumps a whole period at

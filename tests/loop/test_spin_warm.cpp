@@ -1,6 +1,7 @@
-// The warm-up schedule of the haptic thread's spin (haptics::warm_during_spin),
-// on a clock the test moves by hand: every time below is exact, so each
-// check is a closed form of the schedule, not a measurement.
+// The warm-up schedule of the haptic thread's spin (haptics::warm_during_spin)
+// and the replica it holds for the tick, on a clock the test moves by hand:
+// every time below is exact, so each check is a closed form of the schedule,
+// not a measurement.
 
 #include "haptics/spin_warm.h"
 
@@ -14,6 +15,7 @@ namespace palpa {
 namespace {
 
 using haptics::kWarmPollNs;
+using haptics::held_slack_ns;
 using haptics::warm_deadline_ns;
 using haptics::warm_during_spin;
 
@@ -27,19 +29,22 @@ struct StepClock {
 };
 
 struct Warmed {
-  std::vector<std::int64_t> starts;  // when each warm-up started, ns
+  std::vector<std::int64_t> starts;  // when each warm-up let go of its replica started, ns
   std::vector<int> replicas;         // which replica it warmed
+  std::int64_t held_start = -1;      // when the held warm-up started, ns (-1: none)
+  int held = -1;                     // what warm_during_spin returned: the replica held for the tick
 };
 
-// A spin of `spin` ns before a tick at `next`; the replica published at time
-// t is published_at(t); each warm-up takes `cost` ns.
+// A spin of `spin` ns before a tick at `next`, the thread waking at `start`;
+// the replica published at time t is published_at(t); each warm-up takes
+// `cost` ns.
 Warmed run_spin(std::int64_t next, std::int64_t spin, std::int64_t start, std::int64_t cost,
         const std::function<int(std::int64_t)>& published_at, const std::function<bool()>& stop = [] { return false; }) {
   StepClock clock;
   clock.now = start;
   Warmed r;
-  bool stopped = false;
-  warm_during_spin(
+  int holds = 0;
+  r.held = warm_during_spin(
       clock, next, spin, [&] { return published_at(clock.now); },
       [&] {
         r.starts.push_back(clock.now);
@@ -48,11 +53,19 @@ Warmed run_spin(std::int64_t next, std::int64_t spin, std::int64_t start, std::i
         clock.now += cost;
         return replica;
       },
-      [&] { return stopped = stop(); });
-  // Unless stopped, it returns once no look is left before the deadline,
-  // never after the tick (the warm-ups here end before it).
-  if (!stopped) {
-    EXPECT_GE(clock.now + kWarmPollNs, next - warm_deadline_ns(spin));
+      [&] {
+        ++holds;
+        r.held_start = clock.now;
+        const int replica = published_at(clock.now);
+        clock.now += cost;
+        return replica;
+      },
+      stop);
+  // At most one held warm-up, and what it returns is what it held; it
+  // returns before the tick (the warm-ups here end before it).
+  EXPECT_LE(holds, 1);
+  if (holds == 0) {
+    EXPECT_EQ(r.held, -1);
   }
   EXPECT_LT(clock.now, next);
   return r;
@@ -60,6 +73,7 @@ Warmed run_spin(std::int64_t next, std::int64_t spin, std::int64_t start, std::i
 
 constexpr std::int64_t kNext = 10'000'000;  // the tick, ns
 constexpr std::int64_t kSpin = 400'000;     // 400 us: the workbench's spin at 1 kHz
+constexpr std::int64_t kDeadline = kNext - 50'000;  // the held warm-up's time for kSpin
 
 TEST(SpinWarm, TheDeadlineIsAQuarterOfTheSpinAtMost50Us) {
   EXPECT_EQ(warm_deadline_ns(400'000), 50'000);
@@ -67,13 +81,19 @@ TEST(SpinWarm, TheDeadlineIsAQuarterOfTheSpinAtMost50Us) {
   EXPECT_EQ(warm_deadline_ns(100'000), 25'000);
   EXPECT_EQ(warm_deadline_ns(40'000), 10'000);
   EXPECT_EQ(warm_deadline_ns(0), 0);
+  // The held warm-up may start one look late, or half the deadline if less.
+  EXPECT_EQ(held_slack_ns(400'000), 10'000);
+  EXPECT_EQ(held_slack_ns(40'000), 5'000);
+  EXPECT_EQ(held_slack_ns(0), 0);
 }
 
-TEST(SpinWarm, OneWarmUpAtTheSpinsStartWhenNothingIsPublished) {
+TEST(SpinWarm, OneWarmUpAtTheSpinsStartAndTheHeldOneAtTheDeadline) {
   const Warmed r = run_spin(kNext, kSpin, 0, 3'000, [](std::int64_t) { return 0; });
   ASSERT_EQ(r.starts.size(), 1u);
   EXPECT_EQ(r.starts[0], kNext - kSpin);
   EXPECT_EQ(r.replicas[0], 0);
+  EXPECT_EQ(r.held_start, kDeadline);
+  EXPECT_EQ(r.held, 0);
 }
 
 TEST(SpinWarm, AReplicaPublishedDuringTheSpinIsWarmedAtTheNextLook) {
@@ -86,36 +106,57 @@ TEST(SpinWarm, AReplicaPublishedDuringTheSpinIsWarmedAtTheNextLook) {
   EXPECT_EQ(r.starts[0], kNext - kSpin);
   EXPECT_EQ(r.starts[1], kNext - kSpin + 153'000);
   EXPECT_EQ(r.replicas[1], 1);
+  EXPECT_EQ(r.held_start, kDeadline);
+  EXPECT_EQ(r.held, 1);
 }
 
-TEST(SpinWarm, NoWarmUpStartsAfterTheDeadline) {
-  // Published 20 us after the deadline (50 us before the tick): not warmed.
-  const std::int64_t publish = kNext - warm_deadline_ns(kSpin) + 20'000;
+TEST(SpinWarm, AReplicaPublishedAfterTheDeadlineWaitsForTheNextTick) {
+  // Published 20 us after the deadline (50 us before the tick): no warm-up
+  // starts for it, and the tick keeps the replica held at the deadline.
+  const std::int64_t publish = kDeadline + 20'000;
   const Warmed r = run_spin(kNext, kSpin, 0, 3'000, [&](std::int64_t t) { return t >= publish ? 1 : 0; });
   ASSERT_EQ(r.starts.size(), 1u);
-  // Published just before the deadline: warmed at the last look before it.
-  const std::int64_t early = kNext - warm_deadline_ns(kSpin) - 8'000;
+  EXPECT_EQ(r.held_start, kDeadline);
+  EXPECT_EQ(r.held, 0);
+  // Published just before the deadline: warmed at the last look before it,
+  // and held.
+  const std::int64_t early = kDeadline - 8'000;
   const Warmed s = run_spin(kNext, kSpin, 0, 3'000, [&](std::int64_t t) { return t >= early ? 1 : 0; });
   ASSERT_EQ(s.starts.size(), 2u);
-  EXPECT_LT(s.starts[1], kNext - warm_deadline_ns(kSpin));
+  EXPECT_LT(s.starts[1], kDeadline);
   EXPECT_GE(s.starts[1], early);
+  EXPECT_EQ(s.held_start, kDeadline);
+  EXPECT_EQ(s.held, 1);
 }
 
-TEST(SpinWarm, AWakeAfterTheDeadlineWarmsNothing) {
-  // The thread woke late, past the deadline (a long sleep): no warm-up.
-  const Warmed r = run_spin(kNext, kSpin, kNext - warm_deadline_ns(kSpin), 3'000, [](std::int64_t) { return 0; });
+TEST(SpinWarm, AWakeAtTheDeadlineHoldsOneAfterItWarmsNothing) {
+  // Woke exactly at the deadline: only the held warm-up, at once.
+  const Warmed r = run_spin(kNext, kSpin, kDeadline, 3'000, [](std::int64_t) { return 0; });
   EXPECT_TRUE(r.starts.empty());
+  EXPECT_EQ(r.held_start, kDeadline);
+  EXPECT_EQ(r.held, 0);
+  // Woke within one look of it: still held, at once.
+  const Warmed late = run_spin(kNext, kSpin, kDeadline + 10'000, 3'000, [](std::int64_t) { return 0; });
+  EXPECT_EQ(late.held_start, kDeadline + 10'000);
+  // Woke later than that (a long sleep): no warm-up; the tick takes the
+  // current replica itself.
+  const Warmed later = run_spin(kNext, kSpin, kDeadline + 10'001, 3'000, [](std::int64_t) { return 0; });
+  EXPECT_TRUE(later.starts.empty());
+  EXPECT_EQ(later.held_start, -1);
+  EXPECT_EQ(later.held, -1);
   // Woke in the middle of the spin: the first warm-up is at once.
   const Warmed s = run_spin(kNext, kSpin, kNext - 200'000, 3'000, [](std::int64_t) { return 0; });
   ASSERT_EQ(s.starts.size(), 1u);
   EXPECT_EQ(s.starts[0], kNext - 200'000);
+  EXPECT_EQ(s.held_start, kDeadline);
 }
 
 TEST(SpinWarm, EveryPublishIsWarmedOnceWhilePublishesAreFarApart) {
   // A new replica every 100 us from the spin's start: 0, 100, 200, 300 us
   // into the spin; the deadline is at 350 us. Each is warmed once, at the
   // first look after it: looks are 10 us apart, counted from the end of a
-  // 2 us warm-up (0; 12, 22, ..., 102; 114, ..., 204; 216, ..., 306).
+  // 2 us warm-up (0; 12, 22, ..., 102; 114, ..., 204; 216, ..., 306); the
+  // last is held at the deadline.
   const std::int64_t s0 = kNext - kSpin;
   const Warmed r = run_spin(kNext, kSpin, 0, 2'000, [&](std::int64_t t) { return t < s0 ? 0 : static_cast<int>((t - s0) / 100'000); });
   ASSERT_EQ(r.starts.size(), 4u);
@@ -124,28 +165,50 @@ TEST(SpinWarm, EveryPublishIsWarmedOnceWhilePublishesAreFarApart) {
   EXPECT_EQ(r.starts[2], s0 + 204'000);
   EXPECT_EQ(r.starts[3], s0 + 306'000);
   EXPECT_EQ(r.replicas, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(r.held_start, kDeadline);
+  EXPECT_EQ(r.held, 3);
 }
 
-TEST(SpinWarm, StopEndsItBeforeAnyWarmUp) {
+TEST(SpinWarm, StopEndsItWithNothingHeld) {
   const Warmed r = run_spin(kNext, kSpin, 0, 3'000, [](std::int64_t) { return 0; }, [] { return true; });
   EXPECT_TRUE(r.starts.empty());
-  // Stopped after the first warm-up: no second one, though another replica came.
+  EXPECT_EQ(r.held, -1);
+  // Stopped after the first warm-up: no second one, though another replica
+  // came, and none held.
   int looks = 0;
   const Warmed s = run_spin(kNext, kSpin, 0, 3'000, [](std::int64_t t) { return t >= kNext - kSpin + 20'000 ? 1 : 0; },
                             [&] { return ++looks > 1; });
   ASSERT_EQ(s.starts.size(), 1u);
   EXPECT_EQ(s.starts[0], kNext - kSpin);
+  EXPECT_EQ(s.held, -1);
+  // Stopped at the deadline: nothing held.
+  const Warmed d = run_spin(kNext, kSpin, kDeadline, 3'000, [](std::int64_t) { return 0; }, [] { return true; });
+  EXPECT_EQ(d.held, -1);
+}
+
+TEST(SpinWarm, AWarmUpEndingWithinALookOfTheDeadlineIsFollowedByTheHeldOne) {
+  // Woke 5 us before the deadline; the warm-up there takes 9 us and ends 4 us
+  // after it: the held warm-up follows at once. With 16 us (ending 11 us
+  // after, later than one look): none.
+  const Warmed r = run_spin(kNext, kSpin, kDeadline - 5'000, 9'000, [](std::int64_t) { return 0; });
+  ASSERT_EQ(r.starts.size(), 1u);
+  EXPECT_EQ(r.held_start, kDeadline + 4'000);
+  const Warmed s = run_spin(kNext, kSpin, kDeadline - 5'000, 16'000, [](std::int64_t) { return 0; });
+  ASSERT_EQ(s.starts.size(), 1u);
+  EXPECT_EQ(s.held, -1);
 }
 
 TEST(SpinWarm, AWarmUpThatRunsPastTheDeadlineIsTheLast) {
   // Each warm-up takes 200 us: the first (at the spin's start) ends at 200
   // us, the second starts at the next look (210 us) after replica 1 came
   // (at 100 us) and ends at 410 us, past the deadline (350 us) and the tick
-  // (400 us): no third, and it returns at once, without a last look.
+  // (400 us): no third, none held, and it returns at once, without a last
+  // look.
   const std::int64_t s0 = kNext - kSpin;
   StepClock clock;
   std::vector<std::int64_t> starts;
-  warm_during_spin(
+  int holds = 0;
+  const int held = warm_during_spin(
       clock, kNext, kSpin, [&] { return clock.now >= s0 + 100'000 ? 1 : 0; },
       [&] {
         starts.push_back(clock.now);
@@ -153,10 +216,12 @@ TEST(SpinWarm, AWarmUpThatRunsPastTheDeadlineIsTheLast) {
         clock.now += 200'000;
         return replica;
       },
-      [] { return false; });
+      [&] { return ++holds; }, [] { return false; });
   ASSERT_EQ(starts.size(), 2u);
   EXPECT_EQ(starts[1], s0 + 210'000);
   EXPECT_EQ(clock.now, s0 + 410'000);
+  EXPECT_EQ(holds, 0);
+  EXPECT_EQ(held, -1);
 }
 
 }  // namespace
