@@ -600,9 +600,11 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         const double warm_per_tick =
             static_cast<double>(th.f.warm_ups) / static_cast<double>(std::max<std::size_t>(1, plan.warmup + plan.ticks));
         std::printf("[%s] threaded (step on another thread, paced at 1 kHz, spin %.0f us, %.2f warm-ups per tick), "
-                    "3 probes: tick p50 %.3f p99 %.3f p99.9 %.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged)\n",
+                    "3 probes: tick p50 %.3f p99 %.3f p99.9 %.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged); "
+                    "%zu tick slots skipped (the thread held up past them)\n",
                     mc.name.c_str(), pacing.spin_us, warm_per_tick, th.f.tick.p50_us, th.f.tick.p99_us,
-                    th.f.tick.p999_us, th.f.step.p50_us * 1e-3, th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged);
+                    th.f.tick.p999_us, th.f.step.p50_us * 1e-3, th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged,
+                    th.f.skipped);
         std::printf("[%s] threaded, 3 probes: ticks on the replica held from the last warm-up %zu p50 %.3f p99 %.3f us "
                     "(%zu with another published during the hold), without a held warm-up %zu p50 %.3f p99 %.3f us; "
                     "a warm-up p50 %.3f p99 %.3f us\n",
@@ -620,6 +622,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         t["warm_ups_per_tick"] = warm_per_tick;
         t["on_held_replica"] = latency_json(th.f.tick_held);
         t["held_behind"] = th.f.held_behind;
+        t["skipped_slots"] = th.f.skipped;
         t["without_held_warm_up"] = latency_json(th.f.tick_taken);
         t["warm_up"] = latency_json(th.f.warm);
         res.records.push_back(t);

@@ -158,7 +158,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   tick_ns.reserve(ticks);
   tick_held_ns.reserve(ticks);
   tick_taken_ns.reserve(ticks);
-  std::size_t warm_ups = 0, held_behind = 0;
+  std::size_t warm_ups = 0, held_behind = 0, skipped = 0;
   // Takes the current replica (announce, then re-check), as HapticLoop does.
   auto take_replica = [&] {
     int idx;
@@ -188,7 +188,6 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
           [&] { return pacing.hold ? warm_up(true) : -1; }, [] { return false; });
     }
     clock.sleep_until(next, spin_ns);
-    next += period_ns;
     const double t = static_cast<double>(k) * period;
     for (int p = 0; p < probes; ++p) inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
     const auto a = Clock::now();
@@ -199,6 +198,14 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
     in_use.store(-1);
     const auto b = Clock::now();
     if (due) queue.push(core.request());
+    // The next slot; slots already past are skipped, as HapticLoop does
+    // (this thread was held up: no burst of late ticks to catch up).
+    next += period_ns;
+    if (const std::int64_t now = clock.now_ns(); now > next) {
+      const std::int64_t late = (now - next) / period_ns + 1;
+      next += late * period_ns;
+      if (k >= warmup) skipped += static_cast<std::size_t>(late);
+    }
     if (k >= warmup) {
       const double ns = elapsed_ns(a, b);
       tick_ns.push_back(ns);
@@ -218,6 +225,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   f.tick_held = latency_of(tick_held_ns);
   f.tick_taken = latency_of(tick_taken_ns);
   f.held_behind = held_behind;
+  f.skipped = skipped;
   f.warm = latency_of(warm_ns);
   f.step = latency_of(step_ns);
   return f;

@@ -47,6 +47,9 @@ struct ThreadedFigures {
   /// Held ticks whose replica was no longer the current one (the
   /// deformation thread published another during the hold).
   std::size_t held_behind = 0;
+  /// Tick slots skipped among the timed ones because the haptic thread was
+  /// held up past them (HapticLoop skips them the same way).
+  std::size_t skipped = 0;
   Latency warm;  ///< each warm-up between timed ticks (at most 4 per tick kept)
 };
 struct ThreadedPacing {
