@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 namespace palpa::haptics {
@@ -127,6 +128,93 @@ TEST(LoopReplay, ReproducesALiveSessionBitForBit) {
   EXPECT_EQ(replay.generation(), rec.deforms.back().generation);
   EXPECT_EQ(test::vertex_differences(live.final_vertices, replay.surface().state().vertices), 0u);
   EXPECT_GT(test::dented(live.final_vertices), 0u);
+}
+
+// The same on the real clock, with the haptic thread's spin and its warm-ups
+// as in the workbench (LoopConfig::warm_before_tick): there, which replica a
+// tick reads depends on how the two threads meet (a step published during a
+// tick's held warm-up is read from the next tick on), but every tick records
+// the generation it read, so the replay must still give the same bits, and
+// the generations the ticks read never go back. Nothing here depends on how
+// fast the threads run; under ThreadSanitizer (tools/tsan.sh) this is also
+// the run in which the deformation thread publishes while the haptic thread
+// holds a replica.
+TEST(LoopReplay, ReproducesALiveSessionOnTheRealClockWithTheHeldWarmUp) {
+  auto mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(61, 61, 1e-3));
+  deform::Material m;
+  m.stiffness = 400;
+  m.damping = 0.5;
+  const deform::MaterialArrays materials = deform::MaterialArrays::uniform(mesh->vertex_count(), m);
+  // 10 kHz with the spin the workbench plans for it (40% of the period): a
+  // step on this small plane is published tens of microseconds after the
+  // tick that asked for it, so some land in the next tick's last 10 us,
+  // during its held warm-up.
+  LoopConfig c;
+  c.core.rate_hz = 10000;
+  c.core.deform_rate_hz = 500;
+  c.core.shape.radius = 0.008;
+  c.record_capacity = 1 << 16;
+  c.realtime = false;
+  c.spin_us = 40;
+  ASSERT_TRUE(c.warm_before_tick);
+
+  test::FakeDeviceState st;  // samples timed by CLOCK_MONOTONIC, as the loop's clock
+  place_probe(st, 0);
+  auto dev = test::make_fake_device(st);
+  ProbeBinding b;
+  b.device = &dev;
+  b.safety.ramp_time = 0.05;
+  b.safety.max_force_rate = 500;
+  HapticLoop loop(mesh, materials, {}, c, {b});
+  LoopRecording rec;
+  loop.start();
+  loop.enable(0);
+  // 0.2 s unloaded; the bound is for a loaded machine, where the haptic
+  // thread (not real-time here) skips the periods it is held up past.
+  constexpr std::uint64_t kLiveTicks = 2000;
+  constexpr std::chrono::seconds kBound{60};
+  const bool ran = test::wait_until(
+      [&] {
+        place_probe(st, loop.ticks() / 10);  // the path of the 1 kHz session, ten times slower
+        rec.drain(loop);
+        return loop.ticks() >= kLiveTicks;
+      },
+      kBound);
+  loop.stop();
+  ASSERT_TRUE(ran) << "the loop made " << loop.ticks() << " ticks in " << kBound.count() << " s";
+  rec.drain(loop);
+  ASSERT_EQ(loop.statistics().record_drops, 0u);
+  ASSERT_GE(rec.ticks.size(), kLiveTicks);
+  ASSERT_FALSE(rec.deforms.empty());
+
+  // Generations read never go back; count the ticks that read a replica
+  // while a newer one had already been published (held across a publish).
+  std::size_t behind = 0, next_deform = 0;
+  for (std::size_t k = 0; k < rec.ticks.size(); ++k) {
+    const TickRecord& tr = rec.ticks[k];
+    if (k > 0) {
+      ASSERT_GE(tr.model_generation, rec.ticks[k - 1].model_generation) << "tick " << tr.tick;
+    }
+    while (next_deform < rec.deforms.size() && rec.deforms[next_deform].generation <= tr.model_generation)
+      ++next_deform;
+    behind += next_deform < rec.deforms.size() && rec.deforms[next_deform].time < tr.time;
+  }
+  std::printf("[ real clock ] %zu ticks, %zu steps, %llu warm-ups; %zu ticks read a replica held across a publish\n",
+              rec.ticks.size(), rec.deforms.size(), static_cast<unsigned long long>(loop.warm_ups()), behind);
+
+  LoopReplay replay(mesh, materials, {}, loop.config().core, loop.setups());
+  std::size_t compared = 0, force_diff = 0, flag_diff = 0, nonzero = 0;
+  replay.run(rec, [&](const TickRecord& tr, std::span<const ProbeTickResult> again) {
+    ++compared;
+    force_diff += !test::same_bits(tr.force_device[0], again[0].force_device);
+    flag_diff += tr.flags[0] != again[0].flags;
+    nonzero += again[0].force_device[2] != 0.0;
+  });
+  EXPECT_EQ(compared, rec.ticks.size());
+  EXPECT_EQ(force_diff, 0u);
+  EXPECT_EQ(flag_diff, 0u);
+  EXPECT_GT(nonzero, 0u);  // the probe pressed
+  EXPECT_EQ(test::vertex_differences(loop.surface().state().vertices, replay.surface().state().vertices), 0u);
 }
 
 TEST(LoopReplay, SeeksFromASnapshotAtAnyTick) {

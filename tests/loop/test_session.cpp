@@ -436,7 +436,8 @@ void expect_loop_equals_session(double spin_us, bool stop_at_hold = false) {
     if (tick == kForce) loop.set_force(more_friction());
     if (tick == kMaterialMap) loop.set_materials(stiffness_map(*mesh));
     if (spin_us > 0 && tick > 0) {
-      // The warm-up runs at the spin's start, then the tick.
+      // The warm-up runs at the spin's start (and, with stop_at_hold, the
+      // held one at the deadline), then the tick.
       ASSERT_NO_FATAL_FAILURE(tick_through_spin(loop, rig.clock, spin_us, true, stop_at_hold));
     } else {
       ASSERT_TRUE(test::run_ticks(loop, rig.clock, 1));

@@ -43,7 +43,7 @@ Warmed run_spin(std::int64_t next, std::int64_t spin, std::int64_t start, std::i
   StepClock clock;
   clock.now = start;
   Warmed r;
-  int holds = 0;
+  int holds = 0, held_replica = -1;
   r.held = warm_during_spin(
       clock, next, spin, [&] { return published_at(clock.now); },
       [&] {
@@ -56,17 +56,15 @@ Warmed run_spin(std::int64_t next, std::int64_t spin, std::int64_t start, std::i
       [&] {
         ++holds;
         r.held_start = clock.now;
-        const int replica = published_at(clock.now);
+        held_replica = published_at(clock.now);
         clock.now += cost;
-        return replica;
+        return held_replica;
       },
       stop);
   // At most one held warm-up, and what it returns is what it held; it
   // returns before the tick (the warm-ups here end before it).
   EXPECT_LE(holds, 1);
-  if (holds == 0) {
-    EXPECT_EQ(r.held, -1);
-  }
+  EXPECT_EQ(r.held, holds == 1 ? held_replica : -1);
   EXPECT_LT(clock.now, next);
   return r;
 }
@@ -111,7 +109,7 @@ TEST(SpinWarm, AReplicaPublishedDuringTheSpinIsWarmedAtTheNextLook) {
 }
 
 TEST(SpinWarm, AReplicaPublishedAfterTheDeadlineWaitsForTheNextTick) {
-  // Published 20 us after the deadline (50 us before the tick): no warm-up
+  // Published 20 us after the deadline (30 us before the tick): no warm-up
   // starts for it, and the tick keeps the replica held at the deadline.
   const std::int64_t publish = kDeadline + 20'000;
   const Warmed r = run_spin(kNext, kSpin, 0, 3'000, [&](std::int64_t t) { return t >= publish ? 1 : 0; });
@@ -184,6 +182,15 @@ TEST(SpinWarm, StopEndsItWithNothingHeld) {
   // Stopped at the deadline: nothing held.
   const Warmed d = run_spin(kNext, kSpin, kDeadline, 3'000, [](std::int64_t) { return 0; }, [] { return true; });
   EXPECT_EQ(d.held, -1);
+  // Woke 5 us before the deadline: not stopped at that look (a warm-up,
+  // ending 2 us before the deadline), stopped when the deadline came: the
+  // held warm-up does not run.
+  int calls = 0;
+  const Warmed e =
+      run_spin(kNext, kSpin, kDeadline - 5'000, 3'000, [](std::int64_t) { return 0; }, [&] { return ++calls > 1; });
+  EXPECT_EQ(e.starts, (std::vector<std::int64_t>{kDeadline - 5'000}));
+  EXPECT_EQ(e.held, -1);
+  EXPECT_EQ(calls, 2);
 }
 
 TEST(SpinWarm, AWarmUpEndingWithinALookOfTheDeadlineIsFollowedByTheHeldOne) {
