@@ -584,7 +584,9 @@ void HapticLoop::process(const DeformRequest& r, bool stopping) {
   mailbox_->publish(replicas_[other]->stream(), replicas_[other]->take_dirty_ranges());
   meta_[other] = {r.generation, r.time};
   current_.store(other, std::memory_order_seq_cst);
-  made_tick_.store(r.tick + 1, std::memory_order_release);  // the haptic thread now ticks against this step
+  // The haptic thread ticks against this step from its next tick (or the
+  // one after, where this came during that tick's held warm-up).
+  made_tick_.store(r.tick + 1, std::memory_order_release);
   if (deform_records_) {
     DeformRecord rec;
     rec.generation = r.generation;
@@ -688,8 +690,9 @@ void HapticLoop::haptic_main() {
       // before the tick, on the replica the tick will read, which stays
       // taken until the tick is done. So the tick reads from this CPU's
       // caches, warmed moments before. A few microseconds each, on a CPU
-      // that would only spin; none is started later than that, so a late
-      // tick is not made later.
+      // that would only spin; none starts after that deadline (the held one
+      // at most a look, 10 us, or half the deadline after it), so a warm-up
+      // ends before its tick unless it takes longer than that.
       held = warm_during_spin(
           clock, next, spin, [this] { return current_.load(std::memory_order_acquire); },
           [&] {

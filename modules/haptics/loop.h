@@ -86,8 +86,10 @@ struct LoopConfig {
   /// At a quarter of the spin (at most 50 us) before the tick, once more on
   /// the current replica, which the tick then reads (held: a replica
   /// published after it is read from the next tick on). None starts later
-  /// (haptics::warm_during_spin), and none before the first tick with a
-  /// probe since start() or restore() (there is no last tick to run again).
+  /// (the held one at most 10 us or half that lead late;
+  /// haptics::warm_during_spin), so a warm-up of a few microseconds ends
+  /// before its tick; none runs before the first tick with a probe since
+  /// start() or restore() (there is no last tick to run again).
   bool warm_before_tick = true;
   /// Items per recorder queue; 0 (default): no recording. A recorder sets it
   /// (e.g. 1 << 16) and drains the queues often enough (LoopRecording::drain).

@@ -316,9 +316,10 @@ class LoopCore {
   /// a result or state() shows. For a caller that has just run a
   /// deformation step on the tick's thread (Session::deform): the step
   /// streams megabytes through the cache, and the tick after it would
-  /// otherwise pay for those misses; and for the haptic thread at the start
-  /// of its spin (LoopConfig::warm_before_tick), after a sleep and after the
-  /// deformation thread wrote a new replica on another CPU. Costs about one
+  /// otherwise pay for those misses; and for the haptic thread during its
+  /// spin and just before the tick (LoopConfig::warm_before_tick), after a
+  /// sleep and after the deformation thread wrote a new replica on another
+  /// CPU. Costs about one
   /// tick (microseconds); no allocation, no lock.
   void warm_caches(const deform::DeformableSurface& surface) noexcept;
 

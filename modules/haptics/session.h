@@ -15,8 +15,9 @@
 // job, the benchmarks and the replay use it. The real-time HapticLoop runs
 // the very same two halves (LoopCore::tick on the haptic thread,
 // apply_deform_request on the deformation thread), so with every requested
-// step made before the next tick a live session and a Session give the same
-// bits (tests/loop/test_session.cpp checks it).
+// step made before the next tick (before its held warm-up, up to 50 us
+// earlier: LoopConfig::warm_before_tick) a live session and a Session give
+// the same bits (tests/loop/test_session.cpp checks it).
 
 #include "haptics/loop_core.h"
 #include "tissue/field.h"

@@ -13,8 +13,8 @@ namespace palpa::haptics {
 inline constexpr std::int64_t kWarmPollNs = 10'000;
 
 /// How long before the tick the last warm-up starts, ns: a quarter of the
-/// spin `spin_ns` (ns), at most 50 us, so a warm-up (about one tick's time)
-/// never makes the tick late.
+/// spin `spin_ns` (ns), at most 50 us, so a warm-up (about one tick's time,
+/// a few microseconds) ends before the tick.
 constexpr std::int64_t warm_deadline_ns(std::int64_t spin_ns) { return std::min<std::int64_t>(spin_ns / 4, 50'000); }
 
 /// How late after that deadline the held warm-up may still start, ns: one
