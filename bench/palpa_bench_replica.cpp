@@ -190,6 +190,9 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
     clock.sleep_until(next, spin_ns);
     const double t = static_cast<double>(k) * period;
     for (int p = 0; p < probes; ++p) inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
+    // Whether the deformation thread published another replica during the
+    // hold (the tick then reads one step older than the newest).
+    const bool behind = held >= 0 && current.load() != held;
     const auto a = Clock::now();
     const int idx = held >= 0 ? held : take_replica();
     const bool due = core.tick(k, t, *replicas[idx], meta[idx].time,
@@ -210,7 +213,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
       const double ns = elapsed_ns(a, b);
       tick_ns.push_back(ns);
       (held >= 0 ? tick_held_ns : tick_taken_ns).push_back(ns);
-      if (held >= 0 && current.load() != held) ++held_behind;
+      held_behind += behind;
     }
   }
   // Let the last steps finish, then stop.

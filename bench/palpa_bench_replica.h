@@ -44,8 +44,8 @@ struct ThreadedFigures {
   /// warm-up at the spin's deadline, or (no held warm-up: a late wake, or a
   /// warm-up that overran) the current one, taken by the tick itself.
   Latency tick_held, tick_taken;
-  /// Held ticks whose replica was no longer the current one (the
-  /// deformation thread published another during the hold).
+  /// Held ticks whose replica was no longer the current one when the tick
+  /// began (the deformation thread published another during the hold).
   std::size_t held_behind = 0;
   /// Tick slots skipped among the timed ones because the haptic thread was
   /// held up past them (HapticLoop skips them the same way).
