@@ -4,6 +4,7 @@
 // sent. It goes through the same PluginApi path as a loaded plugin.
 
 #include "devices/device.h"
+#include "haptics/loop.h"
 
 #include <atomic>
 #include <cmath>
@@ -112,6 +113,16 @@ inline devices::Device make_fake_device(FakeDeviceState& state, const std::strin
   devices::Device dev(nullptr, api, address, label);
   dev.start();
   return dev;
+}
+
+/// A loop binding for `device` with the safety ramp-in `ramp_time_s` (s) and
+/// force-rate limit `max_force_rate` (N/s), the rest default.
+inline haptics::ProbeBinding fake_binding(devices::Device& device, double ramp_time_s, double max_force_rate) {
+  haptics::ProbeBinding b;
+  b.device = &device;
+  b.safety.ramp_time = ramp_time_s;
+  b.safety.max_force_rate = max_force_rate;
+  return b;
 }
 
 }  // namespace palpa::test

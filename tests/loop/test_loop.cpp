@@ -44,13 +44,7 @@ LoopConfig config(double rate = 1000, double deform = 250, LoopClock* clock = nu
   return c;
 }
 
-ProbeBinding binding(devices::Device& d) {
-  ProbeBinding b;
-  b.device = &d;
-  b.safety.ramp_time = 0.1;
-  b.safety.max_force_rate = 1000;
-  return b;
-}
+ProbeBinding binding(devices::Device& d) { return test::fake_binding(d, 0.1, 1000); }
 
 double norm(double x, double y, double z) { return std::sqrt(x * x + y * y + z * z); }
 

@@ -42,13 +42,25 @@ void place_probe(test::FakeDeviceState& st, std::uint64_t tick) {
   st.z = -0.001 - 0.002 * std::pow(std::sin(5.0 * t), 2);  // always pressing
 }
 
-LiveSession record_live_session() {
-  LiveSession s;
-  s.mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(61, 61, 1e-3));
+// The recorded sessions' plane (60 mm, 1 mm cells) and its material: 400
+// N/m and 0.5 N s/m at every vertex.
+std::shared_ptr<mesh::SurfaceMesh> session_plane() {
+  return std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(61, 61, 1e-3));
+}
+deform::MaterialArrays session_materials(const mesh::SurfaceMesh& mesh) {
   deform::Material m;
   m.stiffness = 400;
   m.damping = 0.5;
-  s.materials = deform::MaterialArrays::uniform(s.mesh->vertex_count(), m);
+  return deform::MaterialArrays::uniform(mesh.vertex_count(), m);
+}
+
+// The probe's binding to `dev`: a 50 ms ramp-in, at most 500 N/s.
+ProbeBinding session_binding(devices::Device& dev) { return test::fake_binding(dev, 0.05, 500); }
+
+LiveSession record_live_session() {
+  LiveSession s;
+  s.mesh = session_plane();
+  s.materials = session_materials(*s.mesh);
 
   test::ManualClock clock;
   LoopConfig c;
@@ -62,11 +74,7 @@ LiveSession record_live_session() {
   st.clock = [&clock] { return clock.now_s(); };
   place_probe(st, 0);
   auto dev = test::make_fake_device(st);
-  ProbeBinding b;
-  b.device = &dev;
-  b.safety.ramp_time = 0.05;
-  b.safety.max_force_rate = 500;
-  HapticLoop loop(s.mesh, s.materials, {}, c, {b});
+  HapticLoop loop(s.mesh, s.materials, {}, c, {session_binding(dev)});
 
   loop.start();
   const bool ran = test::run_ticks(loop, clock, kTicks, [&](std::uint64_t tick) {
@@ -140,11 +148,8 @@ TEST(LoopReplay, ReproducesALiveSessionBitForBit) {
 // the run in which the deformation thread publishes while the haptic thread
 // holds a replica.
 TEST(LoopReplay, ReproducesALiveSessionOnTheRealClockWithTheHeldWarmUp) {
-  auto mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_plane(61, 61, 1e-3));
-  deform::Material m;
-  m.stiffness = 400;
-  m.damping = 0.5;
-  const deform::MaterialArrays materials = deform::MaterialArrays::uniform(mesh->vertex_count(), m);
+  const auto mesh = session_plane();
+  const deform::MaterialArrays materials = session_materials(*mesh);
   // 10 kHz with the spin the workbench plans for it (40% of the period): a
   // step on this small plane is published tens of microseconds after the
   // tick that asked for it, so some land in the next tick's last 10 us,
@@ -161,11 +166,7 @@ TEST(LoopReplay, ReproducesALiveSessionOnTheRealClockWithTheHeldWarmUp) {
   test::FakeDeviceState st;  // samples timed by CLOCK_MONOTONIC, as the loop's clock
   place_probe(st, 0);
   auto dev = test::make_fake_device(st);
-  ProbeBinding b;
-  b.device = &dev;
-  b.safety.ramp_time = 0.05;
-  b.safety.max_force_rate = 500;
-  HapticLoop loop(mesh, materials, {}, c, {b});
+  HapticLoop loop(mesh, materials, {}, c, {session_binding(dev)});
   LoopRecording rec;
   loop.start();
   loop.enable(0);
