@@ -693,21 +693,17 @@ void HapticLoop::haptic_main() {
       // that would only spin; none starts after that deadline (the held one
       // at most a look, 10 us, or half the deadline after it), so a warm-up
       // ends before its tick unless it takes longer than that.
+      // One warm-up on the current replica; `keep`: it stays taken for the tick.
+      auto warm_up = [&](bool keep) {
+        const int warmed = take_replica();
+        core_->warm_caches(*replicas_[warmed]);
+        if (!keep) in_use_.store(-1, std::memory_order_seq_cst);
+        warm_ups_.fetch_add(1, std::memory_order_release);
+        return warmed;
+      };
       held = warm_during_spin(
           clock, next, spin, [this] { return current_.load(std::memory_order_acquire); },
-          [&] {
-            const int warmed = take_replica();
-            core_->warm_caches(*replicas_[warmed]);
-            in_use_.store(-1, std::memory_order_seq_cst);
-            warm_ups_.fetch_add(1, std::memory_order_release);
-            return warmed;
-          },
-          [&] {
-            const int taken = take_replica();
-            core_->warm_caches(*replicas_[taken]);
-            warm_ups_.fetch_add(1, std::memory_order_release);
-            return taken;
-          },
+          [&] { return warm_up(false); }, [&] { return warm_up(true); },
           [this] { return stop_.load(std::memory_order_relaxed); });
       if (stop_.load(std::memory_order_relaxed)) {
         in_use_.store(-1, std::memory_order_seq_cst);
