@@ -16,6 +16,17 @@ namespace {
 
 // Barycentric weights within this of [0, 1] count as inside a triangle.
 constexpr double kInsideTolerance = 1e-9;
+
+// Weights of a solution inside within kInsideTolerance, clamped to the
+// triangle: the common case, all weights already >= 0 (they sum to 1 up to
+// round-off from b0 = 1 - u - v), is kept as solved; only a weight just
+// below zero is clamped and the rest renormalised. Every path that accepts
+// a solution calls this, so they all keep the same bits.
+inline Vec3 clamped_inside(const Vec3& b) {
+  if (b.minCoeff() >= 0) return b;
+  const Vec3 c = b.cwiseMax(0.0);
+  return c / c.sum();
+}
 // Newton steps on the cubic of the interpolated-normal equation, at most
 // (it converges quadratically: three or four steps from the plane crossing).
 constexpr int kNewtonIterations = 16;
@@ -53,9 +64,11 @@ void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
   f.k1 = f.f1.cross(f.e2) + f.e1.cross(f.f2);
   f.k2 = f.f1.cross(f.f2);
   f.nk0 = f.n0.dot(f.k0);
+  f.inv_nk0 = std::abs(f.nk0) > 0 ? 1 / f.nk0 : 0.0;
   f.nk1 = f.n0.dot(f.k1);
   f.nk2 = f.n0.dot(f.k2);
   f.e3_sq = (f.e2 - f.e1).squaredNorm();
+  f.root_scale = std::sqrt(f.a11 + f.a22);
   f.f1_sq = f.f1.squaredNorm();
   f.f2_sq = f.f2.squaredNorm();
   f.f3_sq = (f.f2 - f.f1).squaredNorm();
@@ -105,8 +118,8 @@ bool solve_interpolated_normal(const TriangleFrame& f, const Vec3& probe, Vec3& 
     // |F'' / 2F'| dt^2 for Newton near a simple root, is at round-off level;
     // near a double root (the probe near a focal point of the triangle) it
     // converges slowly, and the residual test below decides.
-    double t = std::abs(f.nk0) > 0 ? c0 / f.nk0 : 0.0;
-    const double tol = 1e-14 * std::sqrt(scale);  // m (t is in m for unit normals)
+    double t = c0 * f.inv_nk0;  // 0 where nk0 is 0
+    const double tol = 1e-14 * f.root_scale;  // m (t is in m for unit normals)
     for (int it = 0; it < kNewtonIterations; ++it) {
       const double F = ((c3 * t + c2) * t + c1) * t + c0;
       const double dF = (3 * c3 * t + 2 * c2) * t + c1;
@@ -115,15 +128,16 @@ bool solve_interpolated_normal(const TriangleFrame& f, const Vec3& probe, Vec3& 
       t -= dt;
       if (!std::isfinite(t)) return false;
       const double ddF = 6 * c3 * t + 2 * c2;
-      if (std::abs(ddF) * dt * dt <= 2 * std::abs(dF) * tol && std::abs(dt) <= 1e-4 * std::sqrt(scale)) break;
+      if (std::abs(ddF) * dt * dt <= 2 * std::abs(dF) * tol && std::abs(dt) <= 1e-4 * f.root_scale) break;
     }
     // (u, v) from the cross products with W = A x B.
     const Vec3 A = f.e1 + t * f.f1, B = f.e2 + t * f.f2, r = d - t * f.n0;
     const Vec3 W = f.k0 + t * (f.k1 + t * f.k2);
     const double ww = W.squaredNorm();
     if (!(ww > 0)) return false;
-    u = r.cross(B).dot(W) / ww;
-    v = A.cross(r).dot(W) / ww;
+    const double inv_ww = 1 / ww;  // one division for both weights
+    u = r.cross(B).dot(W) * inv_ww;
+    v = A.cross(r).dot(W) * inv_ww;
     if (!std::isfinite(u) || !std::isfinite(v)) return false;
     // The residual of the original equation, at round-off level (as accepted
     // by a converged Newton solve).
@@ -178,8 +192,7 @@ void try_inside(const mesh::SurfaceMesh& mesh, Index t, const Vec3& probe, Candi
   Vec3 b;
   if (!solve_interpolated_normal(mesh, t, probe, b)) return;
   if (b.minCoeff() < -kInsideTolerance) return;
-  b = b.cwiseMax(0.0);
-  b /= b.sum();
+  b = clamped_inside(b);
   const double d2 = (probe - interpolate(mesh.positions, tri, b)).squaredNorm();
   if (d2 < best.distance_sq) best = {t, b, d2};
 }
@@ -304,8 +317,7 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
     if (!solve_interpolated_normal(f, probe, b)) return none;
     if (b.minCoeff() >= -kInsideTolerance) {
       // Inside: the same weights and virtual vertex as locate_surface_point's.
-      b = b.cwiseMax(0.0);
-      b /= b.sum();
+      b = clamped_inside(b);
       SurfacePoint sp = finish(f.p, f.n, t, b, probe, true);
       // Still below the surface (a probe that left is for the tree to place),
       // and within half the focal distance: 4 offset^2 |dn|^2 <= |dp|^2 on every edge.

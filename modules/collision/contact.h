@@ -78,8 +78,10 @@ struct TriangleFrame {
   Vec3 n0 = Vec3::Zero(), f1 = Vec3::Zero(), f2 = Vec3::Zero();  ///< first corner's unit normal and normal differences
   Vec3 k0 = Vec3::Zero(), k1 = Vec3::Zero(), k2 = Vec3::Zero();  ///< e1 x e2 (m^2), f1 x e2 + e1 x f2 (m), f1 x f2
   double nk0 = 0, nk1 = 0, nk2 = 0;        ///< n0 . k0, n0 . k1, n0 . k2
+  double inv_nk0 = 0;                      ///< 1 / nk0 (1/m^2), 0 when nk0 is 0
   double a11 = 0, a12 = 0, a22 = 0, det = 0;  ///< edge Gram matrix (m^2) and its determinant (m^4)
   double e3_sq = 0;                        ///< |e2 - e1|^2, m^2
+  double root_scale = 0;                   ///< sqrt(a11 + a22), m: the solver's length scale
   double f1_sq = 0, f2_sq = 0, f3_sq = 0;  ///< |f1|^2, |f2|^2, |f2 - f1|^2
   bool flat = false;                       ///< all three normals equal
 };
