@@ -144,15 +144,20 @@ void haptic_tick(const deform::DeformableSurface& surface, const collision::Vert
     for (Index v : memory[i].corners)
       if (fits && v < mesh.vertex_count()) surface.prefetch_vertex(v);
   }
-  // The far corner of the triangle across the nearest edge (the walk fetched
-  // that triangle ahead), in case the probe steps across.
+  // The triangle across the nearest edge (the walk fetched it ahead), in case
+  // the probe steps across: its far corner's position (the walk prepares the
+  // triangle from it) and surface data, and its row of neighbours (read
+  // after the step to look ahead again).
   for (std::size_t i = 0; i < n; ++i) {
     const Index a = memory[i].cursor.ahead;
     if (!fits || !memory[i].in_contact || a >= mesh.triangle_count()) continue;
+    if (a < mesh.triangle_neighbors.size()) __builtin_prefetch(&mesh.triangle_neighbors[a]);
     for (Index v : mesh.triangles[a])
       if (v < mesh.vertex_count() && v != memory[i].corners[0] && v != memory[i].corners[1] &&
-          v != memory[i].corners[2])
+          v != memory[i].corners[2]) {
+        __builtin_prefetch(&mesh.positions[v]);
         surface.prefetch_vertex(v);
+      }
   }
   // Each probe independently; mismatched sizes run the common prefix.
   for (std::size_t i = 0; i < n; ++i) {
