@@ -122,6 +122,53 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
   out.contact.shape = shape;
 }
 
+// One stage of fetching the ring of the vertex the probe is nearest (see
+// ProbeMemory::ring_vertex): the walk steps round that vertex when the probe
+// passes near it, into triangles beyond the one ahead; without this, each
+// such step waited on memory for the triangle, its far corner and its
+// neighbours in turn. Each stage reads only lines the stage before asked for
+// (a tick earlier), so no stage waits on memory itself. No effect on results.
+void fetch_ring_ahead(const deform::DeformableSurface& surface, const mesh::SurfaceMesh& mesh, ProbeMemory& memory) {
+  const Vec3& b = memory.cursor.barycentric;
+  const Index v = memory.corners[b[0] >= b[1] && b[0] >= b[2] ? 0 : (b[1] >= b[2] ? 1 : 2)];
+  if (v == memory.ring_vertex && memory.ring_stage >= 3) return;  // fetched: most ticks
+  const mesh::Csr& triangles_of = mesh.vertex_triangles;
+  const mesh::Csr& ring_of = mesh.vertex_neighbors;
+  if (v >= mesh.vertex_count() || triangles_of.rows() != mesh.vertex_count() || ring_of.rows() != mesh.vertex_count() ||
+      mesh.triangle_neighbors.size() != mesh.triangle_count())
+    return;
+  if (v != memory.ring_vertex) {
+    memory.ring_vertex = v;
+    memory.ring_stage = 0;
+    __builtin_prefetch(&triangles_of.offsets[v]);
+    __builtin_prefetch(&ring_of.offsets[v]);
+    return;
+  }
+  switch (memory.ring_stage) {
+    case 0:
+      __builtin_prefetch(triangles_of.items.data() + triangles_of.offsets[v]);
+      __builtin_prefetch(ring_of.items.data() + ring_of.offsets[v]);
+      break;
+    case 1:
+      for (Index t : triangles_of.row(v))
+        if (t != memory.cursor.triangle && t < mesh.triangle_count()) {
+          __builtin_prefetch(&mesh.triangles[t]);
+          __builtin_prefetch(&mesh.triangle_neighbors[t]);
+        }
+      break;
+    case 2:
+      for (Index w : ring_of.row(v))
+        if (w < mesh.vertex_count() && w != memory.corners[0] && w != memory.corners[1] && w != memory.corners[2]) {
+          __builtin_prefetch(&mesh.positions[w]);
+          surface.prefetch_vertex(w);
+        }
+      break;
+    default:
+      return;
+  }
+  ++memory.ring_stage;
+}
+
 }  // namespace
 
 void haptic_tick(const deform::DeformableSurface& surface, const collision::VertexTree& tree,
@@ -159,6 +206,10 @@ void haptic_tick(const deform::DeformableSurface& surface, const collision::Vert
         surface.prefetch_vertex(v);
       }
   }
+  // The ring of the corner each probe in contact is nearest, one stage a tick.
+  for (std::size_t i = 0; i < n; ++i)
+    if (fits && memory[i].in_contact && memory[i].cursor.triangle < mesh.triangle_count())
+      fetch_ring_ahead(surface, mesh, memory[i]);
   // Each probe independently; mismatched sizes run the common prefix.
   for (std::size_t i = 0; i < n; ++i) {
     outputs[i] = ProbeOutput{};

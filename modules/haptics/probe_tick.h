@@ -12,6 +12,7 @@
 #include "tissue/field.h"
 
 #include <array>
+#include <cstdint>
 
 #include <span>
 
@@ -62,6 +63,14 @@ struct ProbeMemory {
   /// Vertices of cursor.triangle (valid with it), so the next tick can ask
   /// for their data before it reads the triangle.
   mesh::Triangle corners{kNoIndex, kNoIndex, kNoIndex};
+  /// The corner of cursor.triangle with the largest weight, whose one-ring
+  /// the ticks fetch ahead of the walk (a probe passing near a vertex crosses
+  /// two or three triangles round it in one tick), and how far that fetch has
+  /// got: 0 its rows' offsets asked for, 1 the rows, 2 the ring's triangles,
+  /// 3 its vertices' data. One stage per tick, each reading only what the
+  /// stage before asked for. Where data is fetched only: no effect on results.
+  Index ring_vertex = kNoIndex;
+  std::uint8_t ring_stage = 0;
 };
 
 /// Runs one tick for probes.size() probes against the surface's current

@@ -319,6 +319,52 @@ TEST(HapticTick, ContactHoldsWhileAnUnderdampedSurfaceOvershoots) {
   EXPECT_EQ(again.in_contact, -again.height.depth <= again.height.surface_height);
 }
 
+TEST(HapticTick, TheRingOfTheNearestCornerIsFetchedOneStageATick) {
+  // A probe held in contact near vertex v: from the tick after its first
+  // contact the tick fetches v's ring ahead, one stage a tick (offsets,
+  // rows, triangles, vertices), then stops; near another vertex it starts
+  // over there. The forces are those of a probe with no history (N).
+  const SphereScene scene(linear(400));
+  const mesh::SurfaceMesh& m = *scene.mesh;
+  const Index v = static_cast<Index>(m.vertex_count() / 3);
+  const Index w = m.vertex_neighbors.row(v)[0];
+  ASSERT_NE(w, v);
+  auto below = [&](Index u) { return ProbeInput{m.positions[u] * (1 - 0.001 / kRadius), Vec3::Zero()}; };
+  ProbeMemory memory;
+  ProbeOutput out;
+  auto tick = [&](const ProbeInput& in) {
+    haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1),
+                ForceParams{}, deform::ShapeFunction{});
+    ASSERT_TRUE(out.in_contact);
+    // At a vertex several triangles hold the contact point: the walk keeps
+    // its own, a fresh tick may pick another, equal up to round-off.
+    ASSERT_LE((out.force - scene.tick(in).force).norm(), 1e-12);
+  };
+  tick(below(v));  // first contact: nothing to fetch yet
+  EXPECT_EQ(memory.ring_vertex, kNoIndex);
+  for (int stage = 0; stage <= 3; ++stage) {
+    tick(below(v));
+    EXPECT_EQ(memory.ring_vertex, v) << stage;
+    EXPECT_EQ(memory.ring_stage, stage) << stage;
+  }
+  tick(below(v));
+  EXPECT_EQ(memory.ring_stage, 3);  // fetched: it stays there
+  tick(below(w));                    // the tick reads last tick's contact, still at v
+  EXPECT_EQ(memory.ring_vertex, v);
+  tick(below(w));
+  EXPECT_EQ(memory.ring_vertex, w);
+  EXPECT_EQ(memory.ring_stage, 0);
+  // A memory whose fetch state is out of range (another mesh's vertex, a
+  // stage past the last) starts over or stays idle; it never reads outside.
+  memory.ring_vertex = static_cast<Index>(m.vertex_count() + 7);
+  tick(below(w));
+  EXPECT_EQ(memory.ring_vertex, w);
+  EXPECT_EQ(memory.ring_stage, 0);
+  memory.ring_stage = 200;
+  tick(below(w));
+  EXPECT_EQ(memory.ring_stage, 200);
+}
+
 TEST(HapticTick, DoesNotAllocate) {
   // Several probes in and out of contact, over many ticks: no heap allocation.
   const SphereScene scene(linear(400));
