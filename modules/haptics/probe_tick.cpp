@@ -122,6 +122,17 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
   out.contact.shape = shape;
 }
 
+// Asks for what the walk reads of vertex v when it steps into a triangle
+// with v as its far corner, and the tick after it: the position (the walk
+// prepares the triangle from it) and the surface data. The contact
+// triangle's own corners (the walk keeps their geometry) are skipped.
+void fetch_step_vertex(const deform::DeformableSurface& surface, const mesh::SurfaceMesh& mesh, Index v,
+                       const mesh::Triangle& corners) {
+  if (v >= mesh.vertex_count() || v == corners[0] || v == corners[1] || v == corners[2]) return;
+  __builtin_prefetch(&mesh.positions[v]);
+  surface.prefetch_vertex(v);
+}
+
 // One stage of fetching the ring of the vertex the probe is nearest (see
 // ProbeMemory::ring_vertex): the walk steps round that vertex when the probe
 // passes near it, into triangles beyond the one ahead; without this, each
@@ -157,11 +168,7 @@ void fetch_ring_ahead(const deform::DeformableSurface& surface, const mesh::Surf
         }
       break;
     case 2:
-      for (Index w : ring_of.row(v))
-        if (w < mesh.vertex_count() && w != memory.corners[0] && w != memory.corners[1] && w != memory.corners[2]) {
-          __builtin_prefetch(&mesh.positions[w]);
-          surface.prefetch_vertex(w);
-        }
+      for (Index w : ring_of.row(v)) fetch_step_vertex(surface, mesh, w, memory.corners);
       break;
     default:
       return;
@@ -199,12 +206,7 @@ void haptic_tick(const deform::DeformableSurface& surface, const collision::Vert
     const Index a = memory[i].cursor.ahead;
     if (!fits || !memory[i].in_contact || a >= mesh.triangle_count()) continue;
     if (a < mesh.triangle_neighbors.size()) __builtin_prefetch(&mesh.triangle_neighbors[a]);
-    for (Index v : mesh.triangles[a])
-      if (v < mesh.vertex_count() && v != memory[i].corners[0] && v != memory[i].corners[1] &&
-          v != memory[i].corners[2]) {
-        __builtin_prefetch(&mesh.positions[v]);
-        surface.prefetch_vertex(v);
-      }
+    for (Index v : mesh.triangles[a]) fetch_step_vertex(surface, mesh, v, memory[i].corners);
   }
   // The ring of the corner each probe in contact is nearest, one stage a tick.
   for (std::size_t i = 0; i < n; ++i)
