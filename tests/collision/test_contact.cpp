@@ -191,6 +191,138 @@ TEST(Contact, SphereWithRadialNormalsIsExactlyRadial) {
 }
 
 // ---------------------------------------------------------------------------
+// locate_surface_point against a brute-force search of the nearest vertex's
+// triangles. Each triangle's own answer comes from walk_surface_point
+// started on it: where that triangle holds the foot of the interpolated
+// normal (with the probe below the surface and within half its focal
+// distance) the walk answers at once on it, with the bits locate's solve
+// gives. The search must then answer inside and no farther than the
+// nearest of those feet. This is what the search's cheap test before each
+// solve must not break: it skips only triangles that cannot hold the foot.
+// The probes are built below random points of random triangles,
+// P = C(b) + s N(b), s < 0, so that most have a foot around their nearest
+// vertex.
+
+struct FootCheck {
+  std::size_t probes = 0;  // probes with a foot on a triangle around the nearest vertex
+  std::size_t feet = 0;    // such feet, all probes
+  std::size_t wrong = 0;   // probes whose search answered outside or farther
+};
+
+// `count` probes, each at most `reach` (< 1) times half its triangle's focal
+// distance below the surface (kappa the largest |n_a - n_b| / |p_a - p_b|
+// over its edges, as the walk's test).
+FootCheck check_feet_around_nearest(const mesh::SurfaceMesh& m, std::mt19937& rng, int count, double reach,
+                                    const std::string& what) {
+  const VertexTree tree(m.positions);
+  std::uniform_int_distribution<Index> pick(0, static_cast<Index>(m.triangle_count() - 1));
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  FootCheck fc;
+  for (int i = 0; i < count; ++i) {
+    const auto& tri = m.triangles[pick(rng)];
+    double u = unit(rng), v = unit(rng);
+    if (u + v > 1) {
+      u = 1 - u;
+      v = 1 - v;
+    }
+    const Vec3 b(1 - u - v, u, v);
+    Vec3 point = Vec3::Zero(), normal = Vec3::Zero();
+    double edge = 0, kappa = 0;
+    for (int k = 0; k < 3; ++k) {
+      point += b[k] * m.positions[tri[k]];
+      normal += b[k] * m.normals[tri[k]];
+      const Index j = tri[(k + 1) % 3];
+      const double len = (m.positions[tri[k]] - m.positions[j]).norm();
+      edge = std::max(edge, len);
+      kappa = std::max(kappa, (m.normals[tri[k]] - m.normals[j]).norm() / len);
+    }
+    const double depth = reach * std::min(kappa > 0 ? 0.5 / kappa : edge, edge) * unit(rng);
+    const Vec3 probe = point - depth * normal / normal.norm();
+    const Index nearest = tree.nearest(probe).vertex;
+    double best = std::numeric_limits<double>::infinity();
+    for (Index t : m.vertex_triangles.row(nearest)) {
+      const SurfacePoint own = walk_surface_point(m, probe, t);
+      if (own.triangle != t) continue;
+      ++fc.feet;
+      best = std::min(best, (own.point - probe).norm());
+    }
+    if (!std::isfinite(best)) continue;
+    ++fc.probes;
+    const SurfacePoint sp = locate_surface_point(m, probe, nearest);
+    const double got = (sp.point - probe).norm();
+    if (!sp.inside || !(got <= best * (1 + 1e-12))) {
+      ++fc.wrong;
+      ADD_FAILURE() << what << ": probe " << probe.transpose() << " (nearest vertex " << nearest
+                    << ") has a foot on a triangle around its nearest vertex " << best
+                    << " m away; the search answered triangle " << sp.triangle
+                    << (sp.inside ? " inside, " : " not inside, ") << got << " m away";
+      if (fc.wrong > 5) break;
+    }
+  }
+  return fc;
+}
+
+// A bumpy grid whose vertex normals are tilted at random, some past 90
+// degrees from their triangles' planes (where no cheap test applies).
+mesh::SurfaceMesh tilted_grid(std::mt19937& rng, double max_tilt) {
+  auto m = mesh::make_plane(31, 31, 0.002);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (auto& p : m.positions) p.z() += 0.0004 * g(rng);
+  for (auto& n : m.normals) {
+    const Vec3 side = Vec3(g(rng), g(rng), 0).normalized();
+    const double a = max_tilt * unit(rng);
+    n = std::cos(a) * Vec3::UnitZ() + std::sin(a) * side;
+  }
+  return m;
+}
+
+TEST(Contact, LocateFindsTheNearestFootAroundTheNearestVertex) {
+  std::mt19937 rng(31);
+  // Spheres (normals from the mesh), the synthetic organ, and grids with
+  // tilted normals: up to 30 degrees, and up to 100 (corner normals behind
+  // their triangles' planes).
+  std::vector<std::pair<std::string, mesh::SurfaceMesh>> meshes;
+  meshes.emplace_back("sphere 2k", mesh::make_sphere(2000, 0.05));
+  meshes.emplace_back("organ 5k", mesh::make_organ(5000));
+  meshes.emplace_back("grid, normals within 30 degrees", tilted_grid(rng, 30 * std::numbers::pi / 180));
+  meshes.emplace_back("grid, normals within 100 degrees", tilted_grid(rng, 100 * std::numbers::pi / 180));
+  for (const auto& [what, m] : meshes) {
+    for (double reach : {0.3, 0.95}) {
+      const FootCheck fc = check_feet_around_nearest(m, rng, 3000, reach, what);
+      EXPECT_EQ(fc.wrong, 0u) << what << ", reach " << reach;
+      // Enough probes with a foot around their nearest vertex, most with more than one triangle to choose from.
+      EXPECT_GE(fc.probes, 1500u) << what << ", reach " << reach;
+      std::printf("%s, reach %.2f: %zu probes with a foot around their nearest vertex, %zu such feet\n",
+                  what.c_str(), reach, fc.probes, fc.feet);
+    }
+  }
+}
+
+TEST(Contact, LocateFindsTheNearestFootAroundTheNearestVertexOnOrgans) {
+  PALPA_REQUIRE_SHARED_ORGANS();
+  const std::pair<const char*, double> organs[] = {{"sofa_liver-smooth.obj", 1e-2},
+                                                   {"sofa_liver.vtk", 1e-3},
+                                                   {"sofa_coeur1.off", 1e-3},
+                                                   {"bp3d_FMA72717_right_cingulate_gyrus.obj", 1e-3},
+                                                   {"gca_EdinGCA_3D_00090_large_intestine_20k.vtk", 1e-3}};
+  std::mt19937 rng(32);
+  for (const auto& [file, unit_m] : organs) {
+    mesh::LoadOptions lo;
+    lo.unit_m = unit_m;
+    lo.keep_largest_component = true;
+    const auto m = mesh::load_mesh(test::shared_organs_dir() / file, lo);
+    for (double reach : {0.3, 0.95}) {
+      const FootCheck fc = check_feet_around_nearest(m, rng, 3000, reach, file);
+      EXPECT_EQ(fc.wrong, 0u) << file << ", reach " << reach;
+      EXPECT_GE(fc.probes, 1500u) << file << ", reach " << reach;
+      std::printf("%s, reach %.2f: %zu probes with a foot around their nearest vertex, %zu such feet\n", file,
+                  reach, fc.probes, fc.feet);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
 // The in-contact walk against the full query (nearest vertex by brute force,
 // then locate_surface_point), along sliding trajectories.
 
