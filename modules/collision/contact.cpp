@@ -571,7 +571,7 @@ SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, 
   if (!b.allFinite() || b.minCoeff() < 0 || !(std::abs(b.sum() - 1) <= 1e-9)) b = Vec3::Constant(1.0 / 3);
   b /= b.sum();
   const bool neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
-  Index t = triangle;
+  Index t = triangle, previous = kNoIndex;
   Vec3 d = displacement;  // motion still to make, m
   double length = -1;     // its length along the surface, m (set on the first triangle)
   for (int step = 0; step < kMaxSlideSteps; ++step) {
@@ -652,7 +652,15 @@ SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, 
         if (nt[m] == tri[j]) nb[m] = b[j];
     if (!(nb.sum() > 0)) break;
     b = nb / nb.sum();
+    // Back across the edge it came in by, without having moved (s = 0: the
+    // weight that is zero on that edge would go negative at once): at a
+    // crease whose planes on both sides turn the motion towards the edge it
+    // would cross back and forth with no progress until kMaxSlideSteps (the
+    // point never moving). It stays on the edge, on the side it came from.
+    const bool turned_back = s == 0 && next == previous;
+    previous = t;
     t = next;
+    if (turned_back) break;
   }
   return finish(mesh, t, b, probe, true);
 }

@@ -71,6 +71,37 @@ TEST(Slide, OnAPlaneIsTheTangentialMotionAndStopsAtTheBorder) {
   EXPECT_LE((sp.barycentric - Vec3::Constant(1.0 / 3)).norm(), 1e-15);
 }
 
+TEST(Slide, AtASharpCreaseStopsOnTheEdgeOnTheSideItCameFrom) {
+  // A valley: the quad P0 P1 P2 P3 rising at slope 2 towards -x (split into
+  // A = P0 P1 P2 and A0 = P0 P2 P3 along its diagonal) and the triangle
+  // B = P1 P0 Q rising at slope 2 towards +x, meeting A along the edge
+  // x = 0, z = 0 (53 degrees between the planes). Motion down the slope carries
+  // the point from A0 across the diagonal into A and down to the edge; in
+  // B's plane what is left of it points back down to the edge (the slopes
+  // exceed 1), and in A's again: the point cannot move on, so it stays on
+  // the edge, on A's side. (Without the stop it crossed back and forth until
+  // kMaxSlideSteps, and the 64th crossing left it on B's side.)
+  mesh::SurfaceMesh m;
+  m.positions = {Vec3(0, -1, 0), Vec3(0, 1, 0), Vec3(-1, 1, 2), Vec3(-1, -1, 2), Vec3(1, 0, 2)};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}, {1, 0, 4}};  // A, A0, B
+  mesh::finalize(m);
+  ASSERT_EQ(m.triangle_neighbors.size(), 3u);
+  // The point of A0 at (-0.8, -0.5, 1.6).
+  const Vec3 b(0.2, 0.25, 0.55);
+  const Vec3 start = 0.2 * m.positions[0] + 0.25 * m.positions[2] + 0.55 * m.positions[3];
+  ASSERT_LE((start - Vec3(-0.8, -0.5, 1.6)).norm(), 1e-15);
+  // Down A0's slope, 1 along x (the point's normal is tilted a little
+  // towards B by the normal shared at P0, so the motion is slightly shorter).
+  const SurfacePoint sp = slide_surface_point(m, 1, b, Vec3(1, 0, -2), start);
+  ASSERT_EQ(sp.triangle, 0u);
+  EXPECT_EQ(sp.barycentric[2], 0.0);  // A's corner P2, off the edge
+  EXPECT_NEAR(sp.point.x(), 0.0, 1e-15);
+  EXPECT_NEAR(sp.point.z(), 0.0, 1e-15);
+  EXPECT_GT(sp.point.y(), -1.0);
+  EXPECT_LT(sp.point.y(), 1.0);
+  EXPECT_NEAR(sp.barycentric.sum(), 1.0, 1e-15);
+}
+
 TEST(Slide, OnASphereStaysOnTheSurfaceAndIgnoresNormalMotion) {
   const double r = 0.05;
   auto m = test::radial_sphere(20000, r);
