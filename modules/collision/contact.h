@@ -146,9 +146,9 @@ inline constexpr int kMaxSlideSteps = 64;
 /// non-manifold edge stops it (it stays on that edge), the motion turns
 /// straight back across the edge it has just crossed (a crease whose planes
 /// on both sides turn it towards the edge: it stays on that edge, on the
-/// side it came from) or
-/// kMaxSlideSteps triangles were crossed. It never leaves the surface, so it never passes
-/// through the volume to another sheet. Weights that are not finite, negative
+/// side it came from) or kMaxSlideSteps triangles were crossed. It never
+/// leaves the surface, so it never passes through the volume to another
+/// sheet. Weights that are not finite, negative
 /// or do not sum to 1 are taken as the centroid. Returns the point (inside =
 /// true) with its interpolated normal and the offset of `probe` along it;
 /// triangle == kNoIndex for a bad triangle, a mesh without normals or
