@@ -154,10 +154,11 @@ bool solve_interpolated_normal(const mesh::SurfaceMesh& mesh, Index t, const Vec
   return solve_interpolated_normal(f, probe, b);
 }
 
-// Closest point of the triangle (a, b, c) to p, as barycentric weights: the
+// Closest point of the triangle (a, b, c) to p by its edges: the
 // orthogonal projection when it falls inside, else the nearest of the
-// closest points on the three edges.
-Vec3 closest_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+// closest points on the three edges. Five divisions; kept for triangles
+// too degenerate for closest_barycentric's regions.
+Vec3 closest_barycentric_by_edges(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 e1 = b - a, e2 = c - a, d = p - a;
   const double a11 = e1.dot(e1), a12 = e1.dot(e2), a22 = e2.dot(e2);
   const double det = a11 * a22 - a12 * a12;
@@ -179,6 +180,53 @@ Vec3 closest_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   const double d_bc = (p - (b + s_bc * (c - b))).squaredNorm();
   if (d_ab <= d_ac && d_ab <= d_bc) return w_ab;
   return d_ac <= d_bc ? w_ac : w_bc;
+}
+
+// Closest point of the triangle (a, b, c) to p, as barycentric weights, by
+// the region of the triangle's plane p projects into: a corner's region
+// (both edges from it point away from p), an edge's (p's projection lies
+// outside that edge and between its ends: the edge's own point), or the
+// inside. The regions are told apart by six dot products with the two edges
+// from a, and at most one division is made. The search computes this for
+// every triangle it visits; the edge-by-edge form above made five.
+// Degenerate triangles (an edge of zero length, or no area), where a
+// region's divisor is not positive, go to that form.
+Vec3 closest_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};  // corner a
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};  // corner b
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {  // edge ab
+    const double den = d1 - d3;           // |ab|^2
+    if (!(den > 0)) return closest_barycentric_by_edges(p, a, b, c);
+    const double v = d1 / den;
+    return {1 - v, v, 0};
+  }
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};  // corner c
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {  // edge ac
+    const double den = d2 - d6;           // |ac|^2
+    if (!(den > 0)) return closest_barycentric_by_edges(p, a, b, c);
+    const double w = d2 / den;
+    return {1 - w, 0, w};
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {  // edge bc
+    const double den = (d4 - d3) + (d5 - d6);       // |bc|^2
+    if (!(den > 0)) return closest_barycentric_by_edges(p, a, b, c);
+    const double w = (d4 - d3) / den;
+    return {0, 1 - w, w};
+  }
+  const double den = va + vb + vc;  // |ab x ac|^2
+  if (!(den > 0) || !std::isfinite(den)) return closest_barycentric_by_edges(p, a, b, c);
+  const double inv = 1 / den;
+  const double v = vb * inv, w = vc * inv;
+  return {1 - v - w, v, w};
 }
 
 inline Vec3 interpolate(const std::vector<Vec3>& values, const mesh::Triangle& tri, const Vec3& b) {

@@ -133,6 +133,62 @@ TEST(Contact, ProbeBeyondTheBorderIsClamped) {
   EXPECT_GE(sp.barycentric.minCoeff(), 0.0);
 }
 
+TEST(Contact, OnAFlatTriangleTheAnswerIsItsClosestPoint) {
+  // One triangle whose vertex normals are its face normal: the foot of the
+  // normal is the orthogonal projection, so inside or out the answer is the
+  // triangle's closest point to the probe (outside: the search's fallback,
+  // the closest point of the triangles it saw). Against the closed form,
+  // the nearest of the projection (when inside) and the three edges'
+  // closest points, on random triangles (some needle-thin, some with
+  // nearly equal corners) and probes all round them.
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto segment_closest = [](const Vec3& p, const Vec3& a, const Vec3& b) {
+    const Vec3 ab = b - a;
+    const double len2 = ab.squaredNorm();
+    const double s = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    return Vec3(a + s * ab);
+  };
+  std::size_t inside = 0, outside = 0;
+  for (int i = 0; i < 3000; ++i) {
+    mesh::SurfaceMesh m;
+    const Vec3 a(u(rng), u(rng), u(rng));
+    Vec3 b(u(rng), u(rng), u(rng)), c(u(rng), u(rng), u(rng));
+    if (i % 5 == 1) c = a + 1e-3 * (b - a) + 1e-4 * Vec3(u(rng), u(rng), u(rng));  // a needle
+    if (i % 5 == 2) b = a + 1e-6 * Vec3(u(rng), u(rng), u(rng));                   // two corners 1 um apart
+    m.positions = {a, b, c};
+    m.triangles = {{0, 1, 2}};
+    mesh::finalize(m);
+    const Vec3 n = (b - a).cross(c - a).normalized();
+    m.normals = {n, n, n};
+    // A third of the probes above or below a point of the triangle, the rest anywhere around.
+    Vec3 probe = 2.0 * Vec3(u(rng), u(rng), u(rng));
+    if (i % 3 == 0) {
+      const double w1 = 0.5 + 0.5 * u(rng), w2 = (1 - w1) * (0.5 + 0.5 * u(rng));
+      probe = (1 - w1 - w2) * a + w1 * b + w2 * c + u(rng) * n;
+    }
+    // The closed form.
+    double want = std::min({(probe - segment_closest(probe, a, b)).norm(), (probe - segment_closest(probe, b, c)).norm(),
+                            (probe - segment_closest(probe, c, a)).norm()});
+    const Vec3 e1 = b - a, e2 = c - a, d = probe - a;
+    const double a11 = e1.dot(e1), a12 = e1.dot(e2), a22 = e2.dot(e2), det = a11 * a22 - a12 * a12;
+    const double s = (a22 * d.dot(e1) - a12 * d.dot(e2)) / det, t = (a11 * d.dot(e2) - a12 * d.dot(e1)) / det;
+    const bool projects_inside = s >= 0 && t >= 0 && s + t <= 1;
+    if (projects_inside) want = std::min(want, std::abs(d.dot(n)));
+    const SurfacePoint sp = locate_surface_point(m, probe, 0);
+    ASSERT_EQ(sp.triangle, 0u) << "triangle " << i;
+    EXPECT_GE(sp.barycentric.minCoeff(), 0.0) << "triangle " << i;
+    EXPECT_NEAR(sp.barycentric.sum(), 1.0, 1e-12) << "triangle " << i;
+    EXPECT_LE((sp.barycentric[0] * a + sp.barycentric[1] * b + sp.barycentric[2] * c - sp.point).norm(), 1e-12)
+        << "triangle " << i;
+    EXPECT_NEAR((sp.point - probe).norm(), want, 1e-9) << "triangle " << i << ", probe " << probe.transpose();
+    (projects_inside ? inside : outside) += 1;
+  }
+  // Both kinds are exercised.
+  EXPECT_GT(inside, 500u);
+  EXPECT_GT(outside, 1000u);
+}
+
 TEST(Contact, SphereContactPointIsRadial) {
   // On a sphere with radial vertex normals the virtual vertex lies close to
   // R P/|P| and the offset close to |P| - R; the error is bounded by the
