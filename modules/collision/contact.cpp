@@ -192,6 +192,16 @@ Vec3 closest_barycentric_by_edges(const Vec3& p, const Vec3& a, const Vec3& b, c
 // Degenerate triangles (an edge of zero length, or no area), where a
 // region's divisor is not positive, go to that form.
 Vec3 closest_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  // The point num / den of the way from corner i to corner j (den: the
+  // edge's squared length), or the edge-by-edge form for an edge of no length.
+  auto on_edge = [&](double num, double den, int i, int j) {
+    if (!(den > 0)) return closest_barycentric_by_edges(p, a, b, c);
+    const double s = num / den;
+    Vec3 w = Vec3::Zero();
+    w[i] = 1 - s;
+    w[j] = s;
+    return w;
+  };
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
   if (d1 <= 0 && d2 <= 0) return {1, 0, 0};  // corner a
@@ -199,29 +209,14 @@ Vec3 closest_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   const double d3 = ab.dot(bp), d4 = ac.dot(bp);
   if (d3 >= 0 && d4 <= d3) return {0, 1, 0};  // corner b
   const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {  // edge ab
-    const double den = d1 - d3;           // |ab|^2
-    if (!(den > 0)) return closest_barycentric_by_edges(p, a, b, c);
-    const double v = d1 / den;
-    return {1 - v, v, 0};
-  }
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return on_edge(d1, d1 - d3, 0, 1);  // edge ab
   const Vec3 cp = p - c;
   const double d5 = ab.dot(cp), d6 = ac.dot(cp);
   if (d6 >= 0 && d5 <= d6) return {0, 0, 1};  // corner c
   const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {  // edge ac
-    const double den = d2 - d6;           // |ac|^2
-    if (!(den > 0)) return closest_barycentric_by_edges(p, a, b, c);
-    const double w = d2 / den;
-    return {1 - w, 0, w};
-  }
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return on_edge(d2, d2 - d6, 0, 2);  // edge ac
   const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {  // edge bc
-    const double den = (d4 - d3) + (d5 - d6);       // |bc|^2
-    if (!(den > 0)) return closest_barycentric_by_edges(p, a, b, c);
-    const double w = (d4 - d3) / den;
-    return {0, 1 - w, w};
-  }
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return on_edge(d4 - d3, (d4 - d3) + (d5 - d6), 1, 2);  // edge bc
   const double den = va + vb + vc;  // |ab x ac|^2
   if (!(den > 0) || !std::isfinite(den)) return closest_barycentric_by_edges(p, a, b, c);
   const double inv = 1 / den;
