@@ -247,6 +247,31 @@ TEST(Contact, SphereWithRadialNormalsIsExactlyRadial) {
 }
 
 // ---------------------------------------------------------------------------
+// The shared organs these tests load, with their files' units (SOURCES.md:
+// the smooth liver in cm, the others in mm) and what the walk is expected to
+// do on each (ContactWalk.MatchesTheFullQueryAlongSlidingPathsOnOrgans).
+struct SharedOrgan {
+  const char* file;
+  double unit_m;
+  double min_walked;  // fraction of queries the walk answers, at least
+  double max_differ;  // fraction of walked answers that may differ from the full query, at most
+};
+constexpr SharedOrgan kSharedOrgans[] = {{"sofa_liver-smooth.obj", 1e-2, 0.95, 0.01},
+                                         {"sofa_liver.vtk", 1e-3, 0.95, 0.0},
+                                         {"sofa_coeur1.off", 1e-3, 0.95, 0.0},
+                                         {"bp3d_FMA72717_right_cingulate_gyrus.obj", 1e-3, 0.80, 0.06},
+                                         {"gca_EdinGCA_3D_00090_large_intestine_20k.vtk", 1e-3, 0.95, 0.0}};
+
+// One of them in metres, its largest component only (sofa_liver.vtk carries
+// three tiny specks).
+mesh::SurfaceMesh load_shared_organ(const SharedOrgan& o) {
+  mesh::LoadOptions lo;
+  lo.unit_m = o.unit_m;
+  lo.keep_largest_component = true;
+  return mesh::load_mesh(test::shared_organs_dir() / o.file, lo);
+}
+
+// ---------------------------------------------------------------------------
 // locate_surface_point against a brute-force search of the nearest vertex's
 // triangles. Each triangle's own answer comes from walk_surface_point
 // started on it: where that triangle holds the foot of the interpolated
@@ -335,7 +360,7 @@ mesh::SurfaceMesh tilted_grid(std::mt19937& rng, double max_tilt) {
 
 TEST(Contact, LocateFindsTheNearestFootAroundTheNearestVertex) {
   std::mt19937 rng(31);
-  // Spheres (normals from the mesh), the synthetic organ, and grids with
+  // A sphere (normals from the mesh), the synthetic organ, and grids with
   // tilted normals: up to 30 degrees, and up to 100 (corner normals behind
   // their triangles' planes).
   std::vector<std::pair<std::string, mesh::SurfaceMesh>> meshes;
@@ -357,17 +382,10 @@ TEST(Contact, LocateFindsTheNearestFootAroundTheNearestVertex) {
 
 TEST(Contact, LocateFindsTheNearestFootAroundTheNearestVertexOnOrgans) {
   PALPA_REQUIRE_SHARED_ORGANS();
-  const std::pair<const char*, double> organs[] = {{"sofa_liver-smooth.obj", 1e-2},
-                                                   {"sofa_liver.vtk", 1e-3},
-                                                   {"sofa_coeur1.off", 1e-3},
-                                                   {"bp3d_FMA72717_right_cingulate_gyrus.obj", 1e-3},
-                                                   {"gca_EdinGCA_3D_00090_large_intestine_20k.vtk", 1e-3}};
   std::mt19937 rng(32);
-  for (const auto& [file, unit_m] : organs) {
-    mesh::LoadOptions lo;
-    lo.unit_m = unit_m;
-    lo.keep_largest_component = true;
-    const auto m = mesh::load_mesh(test::shared_organs_dir() / file, lo);
+  for (const SharedOrgan& o : kSharedOrgans) {
+    const auto m = load_shared_organ(o);
+    const char* file = o.file;
     for (double reach : {0.3, 0.95}) {
       const FootCheck fc = check_feet_around_nearest(m, rng, 3000, reach, file);
       EXPECT_EQ(fc.wrong, 0u) << file << ", reach " << reach;
@@ -529,22 +547,8 @@ TEST(ContactWalk, MatchesTheFullQueryAlongSlidingPathsOnOrgans) {
   // contact slid on, so a few answers may differ there (each still a true
   // solution, checked in compare_walk_with_full).
   PALPA_REQUIRE_SHARED_ORGANS();
-  struct Organ {
-    const char* file;
-    double unit_m;
-    double min_walked;  // fraction of queries the walk answers, at least
-    double max_differ;  // fraction of walked answers that may differ from the full query, at most
-  };
-  const Organ organs[] = {{"sofa_liver-smooth.obj", 1e-2, 0.95, 0.01},
-                          {"sofa_liver.vtk", 1e-3, 0.95, 0.0},
-                          {"sofa_coeur1.off", 1e-3, 0.95, 0.0},
-                          {"bp3d_FMA72717_right_cingulate_gyrus.obj", 1e-3, 0.80, 0.06},
-                          {"gca_EdinGCA_3D_00090_large_intestine_20k.vtk", 1e-3, 0.95, 0.0}};
-  for (const Organ& o : organs) {
-    mesh::LoadOptions lo;
-    lo.unit_m = o.unit_m;
-    lo.keep_largest_component = true;
-    const auto m = mesh::load_mesh(test::shared_organs_dir() / o.file, lo);
+  for (const SharedOrgan& o : kSharedOrgans) {
+    const auto m = load_shared_organ(o);
     const double h = longest_edge(m);
     const VertexTree tree(m.positions);
     std::mt19937 rng(77);
