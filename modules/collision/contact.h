@@ -8,6 +8,8 @@
 #include "collision/vertex_tree.h"
 #include "mesh/surface_mesh.h"
 
+#include <array>
+
 namespace palpa::collision {
 
 /// The virtual vertex under a probe: the point on a triangle of the
@@ -62,6 +64,38 @@ inline constexpr int kMaxFanSteps = 64;
 /// walk keeps the one the contact slid in from while locate_surface_point
 /// picks by the nearest vertex, so the two may differ there. No allocation.
 SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle);
+
+/// The triangles an in-contact walk visited, in order, and from which of
+/// them a walk started afresh, with the same probe, ends as this one did.
+/// Each step of the walk depends only on the triangle it is on and the
+/// probe, so a walk started on a later triangle of the trace follows the
+/// rest of it and stops where this one stopped (where this one stepped
+/// straight back, a walk started on the last triangle steps back once and
+/// then stops there too), except where this one ran out of steps: a new
+/// walk has more. track_contact uses it to skip a second walk whose answer
+/// it knows.
+struct WalkTrace {
+  /// Most triangles a walk can visit: the start, kMaxWalkSteps - 1 steps
+  /// and kMaxFanSteps steps around high-valence vertices.
+  static constexpr int kCapacity = kMaxWalkSteps + kMaxFanSteps;
+  std::array<Index, kCapacity> triangles;  ///< the first `count` are set
+  int count = 0;  ///< triangles recorded
+  /// A walk started on triangles[i], 1 <= i <= last_repeatable, with the
+  /// same probe and no jump test, gives the same answer (the same bits, or
+  /// no answer); -1 when none does.
+  int last_repeatable = -1;
+
+  /// True when a walk from `t` would repeat this one's answer.
+  bool repeats_from(Index t) const {
+    for (int i = 1; i <= last_repeatable && i < count; ++i)
+      if (triangles[i] == t) return true;
+    return false;
+  }
+};
+
+/// walk_surface_point, also recording the triangles visited in `trace`.
+SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle,
+                                WalkTrace& trace);
 
 /// One triangle prepared for the interpolated-normal equation: its corners
 /// and per-triangle constants, so a walk that stays on a triangle does not

@@ -626,6 +626,136 @@ TEST(ContactWalk, DeclinesAboveTheSurfaceBeyondTheBorderAndPastHalfTheFocalDista
   }
 }
 
+// ---------------------------------------------------------------------------
+// The walk's trace: a walk started afresh on a later triangle of the trace,
+// with the same probe, must give the same bits (or no answer) wherever the
+// trace says it repeats; track_contact skips such a walk on that promise.
+
+struct TraceCheck {
+  std::size_t walks = 0;     // walks traced
+  std::size_t restarts = 0;  // restarts the trace says repeat, all checked
+  std::size_t wrong = 0;     // of those, restarts with another answer
+  // Restarts from triangles the trace leaves out (beyond last_repeatable)
+  // that gave another answer: the trace is right to leave them out.
+  std::size_t excluded_differ = 0;
+};
+
+bool same_answer(const SurfacePoint& a, const SurfacePoint& b) {
+  if (a.triangle != b.triangle) return false;
+  if (a.triangle == kNoIndex) return true;
+  return a.point == b.point && a.offset == b.offset && a.barycentric == b.barycentric && a.normal == b.normal;
+}
+
+// `n` probes under random points of random triangles, `depth` (m) below
+// them, each walked from a triangle up to eight random steps across edges
+// from the one above it; every later triangle of the trace is restarted.
+TraceCheck check_walk_traces(const mesh::SurfaceMesh& m, std::mt19937& rng, int n, double depth_lo,
+                             double depth_hi, const std::string& what) {
+  TraceCheck c;
+  std::uniform_int_distribution<Index> tri(0, static_cast<Index>(m.triangle_count() - 1));
+  std::uniform_real_distribution<double> u(0, 1), dd(depth_lo, depth_hi);
+  std::uniform_int_distribution<int> hops(0, 8), side(0, 2);
+  for (int i = 0; i < n; ++i) {
+    const Index t = tri(rng);
+    double a = u(rng), b = u(rng);
+    if (a + b > 1) {
+      a = 1 - a;
+      b = 1 - b;
+    }
+    const mesh::Triangle& tv = m.triangles[t];
+    const Vec3 w(1 - a - b, a, b);
+    const Vec3 point = w[0] * m.positions[tv[0]] + w[1] * m.positions[tv[1]] + w[2] * m.positions[tv[2]];
+    const Vec3 normal = (w[0] * m.normals[tv[0]] + w[1] * m.normals[tv[1]] + w[2] * m.normals[tv[2]]).normalized();
+    const Vec3 probe = point - dd(rng) * normal;
+    Index start = t;
+    for (int h = hops(rng); h > 0; --h) {
+      const Index next = m.triangle_neighbors[start][side(rng)];
+      if (next != kNoIndex) start = next;
+    }
+    WalkTrace trace;
+    const SurfacePoint walked = walk_surface_point(m, probe, start, trace);
+    ++c.walks;
+    // The trace is the walk's path: it starts on `start`, each next triangle
+    // shares an edge with the one before, and it gives the untraced answer.
+    EXPECT_TRUE(same_answer(walked, walk_surface_point(m, probe, start))) << what << ", probe " << i;
+    if (trace.count < 1 || trace.count > WalkTrace::kCapacity) {
+      ADD_FAILURE() << what << ", probe " << i << ": a trace of " << trace.count << " triangles";
+      ++c.wrong;
+      continue;
+    }
+    EXPECT_EQ(trace.triangles[0], start) << what;
+    for (int k = 1; k < trace.count; ++k) {
+      const auto& nb = m.triangle_neighbors[trace.triangles[k - 1]];
+      EXPECT_TRUE(nb[0] == trace.triangles[k] || nb[1] == trace.triangles[k] || nb[2] == trace.triangles[k])
+          << what << ", probe " << i << ": step " << k << " is not across an edge";
+    }
+    EXPECT_LT(trace.last_repeatable, trace.count) << what;
+    for (int k = 1; k < trace.count; ++k) {
+      const bool same = same_answer(walked, walk_surface_point(m, probe, trace.triangles[k]));
+      if (k <= trace.last_repeatable) {
+        ++c.restarts;
+        if (!same) {
+          ++c.wrong;
+          ADD_FAILURE() << what << ", probe " << i << ": the walk from step " << k << " of " << trace.count
+                        << " ends otherwise";
+        }
+      } else if (!same) {
+        ++c.excluded_differ;
+      }
+    }
+  }
+  return c;
+}
+
+TEST(ContactWalk, AWalkFromALaterTriangleOfItsTraceEndsAsTheTraceSays) {
+  // A sphere with radial normals (focal distance R): probes from above the
+  // surface to twice R deep, where walks step back and forth or run out of
+  // steps; grids with normals tilted up to 30 and 100 degrees.
+  const double radius = 0.05;
+  std::mt19937 rng(41);
+  struct Case {
+    std::string name;
+    mesh::SurfaceMesh mesh;
+    double depth_lo, depth_hi;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"radial sphere", test::radial_sphere(3000, radius), -0.2 * radius, 2 * radius});
+  for (double tilt : {30.0, 100.0}) {
+    auto g = mesh::make_plane(12, 12, 0.01);
+    std::uniform_real_distribution<double> ang(-tilt / 2, tilt / 2);
+    for (auto& n : g.normals) {
+      const double ax = ang(rng) * std::numbers::pi / 180, ay = ang(rng) * std::numbers::pi / 180;
+      n = (Eigen::AngleAxisd(ax, Vec3::UnitX()) * Eigen::AngleAxisd(ay, Vec3::UnitY()) * Vec3::UnitZ()).normalized();
+    }
+    cases.push_back({"grid tilted " + std::to_string(static_cast<int>(tilt)) + " deg", g, -0.005, 0.03});
+  }
+  TraceCheck total;
+  for (const Case& k : cases) {
+    const TraceCheck c = check_walk_traces(k.mesh, rng, 3000, k.depth_lo, k.depth_hi, k.name);
+    std::printf("%s: %zu walks, %zu restarts checked, %zu from left-out triangles that end otherwise\n",
+                k.name.c_str(), c.walks, c.restarts, c.excluded_differ);
+    EXPECT_EQ(c.wrong, 0u) << k.name;
+    EXPECT_GE(c.restarts, 500u) << k.name;
+    total.excluded_differ += c.excluded_differ;
+  }
+  // The left-out triangles are left out for a reason: some restarts from
+  // them end otherwise (a walk that stepped back or ran out of steps).
+  EXPECT_GT(total.excluded_differ, 0u);
+}
+
+TEST(ContactWalk, AWalkFromALaterTriangleOfItsTraceEndsAsTheTraceSaysOnOrgans) {
+  PALPA_REQUIRE_SHARED_ORGANS();
+  std::mt19937 rng(43);
+  for (const SharedOrgan& o : kSharedOrgans) {
+    const auto m = load_shared_organ(o);
+    const TraceCheck c = check_walk_traces(m, rng, 3000, -0.001, 0.008, o.file);
+    std::printf("%s: %zu walks, %zu restarts checked, %zu from left-out triangles that end otherwise\n", o.file,
+                c.walks, c.restarts, c.excluded_differ);
+    EXPECT_EQ(c.wrong, 0u) << o.file;
+    EXPECT_GE(c.restarts, 500u) << o.file;
+  }
+}
+
 TEST(ContactWalk, QueryContactWalksOnlyInContactAndWithoutJumps) {
   const double radius = 0.05;
   const auto m = mesh::make_sphere(20000, radius);
