@@ -89,12 +89,13 @@ struct Options {
   bool threaded_hold = true;   // ... and reading the replica held from the warm-up at the deadline
   bool spatial_order = true;   // mesh::reorder_spatially, as load_organ numbers every organ
   std::string only;      // only meshes whose name contains this
+  int repeat = 1;        // contact queries: runs of each method's path, least time per query kept
 };
 
 void print_usage() {
   std::printf(
       "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--organ-unit U] [--no-spheres]\n"
-      "                   [--ticks N] [--seed N] [--tissue-map]\n"
+      "                   [--ticks N] [--seed N] [--repeat N] [--tissue-map]\n"
       "  --quick            reduced set (spheres 10k, 100k, 1M; fewer ticks; no brute force above 100k)\n"
       "  --json FILE        also write the records as a JSON array to FILE\n"
       "  --shared-data DIR  folder of shared organ meshes (default %s)\n"
@@ -103,6 +104,9 @@ void print_usage() {
       "  --no-spheres       organs only\n"
       "  --ticks N          timed ticks per run (default 50000, quick 3000)\n"
       "  --seed N           trajectory seed (default 20240601)\n"
+      "  --repeat N         contact queries only: run each method's path N times from the same start\n"
+      "                     and keep each query's least time (takes the machine's interruptions out of\n"
+      "                     both sides of a comparison; default 1: every query timed once)\n"
       "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n"
       "  --threaded-both    the threaded run steps both replicas (as before issue 8) instead of level_with\n"
       "  --no-threaded      skip the paced run with the deformation step on another thread\n"
@@ -170,6 +174,11 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       o.tissue_map_only = true;
     } else if (a == "--seed") {
       if (auto e = number("--seed", o.seed)) return e;
+    } else if (a == "--repeat") {
+      std::uint64_t n = 0;
+      if (auto e = number("--repeat", n)) return e;
+      if (n < 1 || n > 100) return std::string("--repeat: between 1 and 100 runs");
+      o.repeat = static_cast<int>(n);
     } else if (a == "--help" || a == "-h") {
       print_usage();
       std::exit(0);
@@ -388,6 +397,28 @@ std::vector<double> time_queries(const bench::ProbePaths& paths, int probes, std
     }
   }
   return ns;
+}
+
+// time_queries run `repeat` times, each after `reset` (which puts the
+// method's cursors, hints and counters back to their start), keeping each
+// query's least time: the same queries in the same states every run, so the
+// least is the query's cost without the machine's interruptions. The
+// answers are the last run's (every run gives the same).
+template <class Reset, class Query>
+std::vector<double> time_queries_least(int repeat, Reset&& reset, const bench::ProbePaths& paths, int probes,
+                                       std::size_t warm_begin, std::size_t timed_begin, std::size_t stride,
+                                       Query&& query, std::vector<Answer>& answers) {
+  std::vector<double> least;
+  for (int r = 0; r < repeat; ++r) {
+    reset();
+    std::vector<double> ns = time_queries(paths, probes, warm_begin, timed_begin, stride, query, answers);
+    if (r == 0) {
+      least = std::move(ns);
+    } else {
+      for (std::size_t i = 0; i < least.size() && i < ns.size(); ++i) least[i] = std::min(least[i], ns[i]);
+    }
+  }
+  return least;
 }
 
 // ---------------------------------------------------------------------------
@@ -707,8 +738,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     std::array<collision::ContactCursor, kMaxProbes> contact_cursors{};
     std::array<bool, kMaxProbes> touching{};
     std::array<collision::SearchCursor, kMaxProbes> cursors{};
-    std::array<Vec3, kMaxProbes> hints{};
-    for (int p = 0; p < probes; ++p) hints[p] = cgal.closest_point(paths.at(0, p));
+    std::array<Vec3, kMaxProbes> hints{};  // CGAL's hints: each probe's first closest point (reset_hints)
     const auto& mesh_ref = *m;
     std::size_t local_walks = 0;
     auto local = [&](int p, const Vec3& q) {
@@ -752,16 +782,34 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     };
     std::vector<Answer> a_local, a_tree_local, a_full, a_cgal, a_hint, a_brute;
     std::map<std::string, std::vector<double>> ns;
-    ns["local"] = time_queries(paths, probes, 0, plan.warmup, 1, local, a_local);
+    // Each method from its start state (cursors, hints, counters), opt.repeat times.
+    const auto none = [] {};
+    const int rep = opt.repeat;
+    const auto reset_local = [&] {
+      contact_cursors = {};
+      touching = {};
+      local_walks = 0;
+    };
+    ns["local"] = time_queries_least(rep, reset_local, paths, probes, 0, plan.warmup, 1, local, a_local);
     const double walk_share = static_cast<double>(local_walks) / static_cast<double>(paths.ticks * probes);
     std::vector<Answer> a_track;
-    ns["track"] = time_queries(paths, probes, 0, plan.warmup, 1, track, a_track);
+    const auto reset_track = [&] {
+      track_cursors = {};
+      track_touching = {};
+      track_walks = 0;
+      track_proxies = 0;
+    };
+    ns["track"] = time_queries_least(rep, reset_track, paths, probes, 0, plan.warmup, 1, track, a_track);
     const double track_walk_share = static_cast<double>(track_walks) / static_cast<double>(paths.ticks * probes);
     const double track_proxy_share = static_cast<double>(track_proxies) / static_cast<double>(paths.ticks * probes);
-    ns["tree_local"] = time_queries(paths, probes, 0, plan.warmup, 1, tree_local, a_tree_local);
-    ns["full"] = time_queries(paths, probes, 0, plan.warmup, 1, full, a_full);
-    ns["cgal"] = time_queries(paths, probes, 0, plan.warmup, 1, cgal_plain, a_cgal);
-    ns["cgal_hint"] = time_queries(paths, probes, 0, plan.warmup, 1, cgal_hint, a_hint);
+    const auto reset_tree = [&] { cursors = {}; };
+    ns["tree_local"] = time_queries_least(rep, reset_tree, paths, probes, 0, plan.warmup, 1, tree_local, a_tree_local);
+    ns["full"] = time_queries_least(rep, none, paths, probes, 0, plan.warmup, 1, full, a_full);
+    ns["cgal"] = time_queries_least(rep, none, paths, probes, 0, plan.warmup, 1, cgal_plain, a_cgal);
+    const auto reset_hints = [&] {
+      for (int p = 0; p < probes; ++p) hints[p] = cgal.closest_point(paths.at(0, p));
+    };
+    ns["cgal_hint"] = time_queries_least(rep, reset_hints, paths, probes, 0, plan.warmup, 1, cgal_hint, a_hint);
     // Diagnostics: the nearest-vertex part alone (no locate_surface_point), same points.
     std::array<collision::SearchCursor, kMaxProbes> cursors2{};
     std::vector<Answer> a_scratch;
@@ -773,8 +821,10 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       const auto nv = tree.nearest(q);
       return Answer{nv.vertex, nv.distance_sq, Vec3::Zero()};
     };
-    auto ns_local_only = time_queries(paths, probes, 0, plan.warmup, 1, nearest_local_only, a_scratch);
-    auto ns_full_only = time_queries(paths, probes, 0, plan.warmup, 1, nearest_full_only, a_scratch);
+    const auto reset_tree2 = [&] { cursors2 = {}; };
+    auto ns_local_only =
+        time_queries_least(rep, reset_tree2, paths, probes, 0, plan.warmup, 1, nearest_local_only, a_scratch);
+    auto ns_full_only = time_queries_least(rep, none, paths, probes, 0, plan.warmup, 1, nearest_full_only, a_scratch);
     const Latency lat_local_only = bench::latency_of(ns_local_only);
     const Latency lat_full_only = bench::latency_of(ns_full_only);
     // Brute force: skipped or sampled (every stride-th tick) to bound its cost;
@@ -860,6 +910,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["suite"] = "query";
       r["method"] = method;
       r["probes"] = probes;
+      r["runs_per_query"] = method == std::string("brute") ? 1 : opt.repeat;  // least time kept (--repeat)
       r["p50_ratio_to_local"] = q.lat.p50_us / ours.p50_us;
       r["p99_ratio_to_local"] = q.lat.p99_us / ours.p99_us;
       r["check"] = q.note;
@@ -942,6 +993,10 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock, const Opt
               "proxy slid along the surface; tree_local = nearest_local + locate_surface_point; full = nearest + "
               "locate_surface_point; brute = nearest_brute_force + locate_surface_point; cgal = "
               "AABB_tree::closest_point)\n");
+  if (opt.repeat > 1)
+    std::printf("   each query's least time over %d runs of its method's path from the same start (--repeat; brute "
+                "force timed once)\n",
+                opt.repeat);
   std::printf("%-40s %9s %2s %-10s %7s %8s %8s %8s %8s %6s %6s  %s\n", "mesh", "vertices", "p", "method", "samples",
               "p50", "p99", "p99.9", "max", "x p50", "x p99", "check / target");
   const QueryRow* local = nullptr;
