@@ -646,9 +646,10 @@ bool same_answer(const SurfacePoint& a, const SurfacePoint& b) {
   return a.point == b.point && a.offset == b.offset && a.barycentric == b.barycentric && a.normal == b.normal;
 }
 
-// `n` probes under random points of random triangles, `depth` (m) below
-// them, each walked from a triangle up to eight random steps across edges
-// from the one above it; every later triangle of the trace is restarted.
+// `n` probes under random points of random triangles, between `depth_lo`
+// and `depth_hi` (m) below them along the interpolated normal, each walked
+// from a triangle up to eight random steps across edges from the one above
+// it; every later triangle of the trace is restarted.
 TraceCheck check_walk_traces(const mesh::SurfaceMesh& m, std::mt19937& rng, int n, double depth_lo,
                              double depth_hi, const std::string& what) {
   TraceCheck c;
@@ -690,6 +691,14 @@ TraceCheck check_walk_traces(const mesh::SurfaceMesh& m, std::mt19937& rng, int 
           << what << ", probe " << i << ": step " << k << " is not across an edge";
     }
     EXPECT_LT(trace.last_repeatable, trace.count) << what;
+    // repeats_from(t): t is among triangles[1 .. last_repeatable] (the start
+    // is not, unless the walk came back to it: the caller's first walk may
+    // have declined there for its jump test).
+    for (int k = 0; k < trace.count; ++k) {
+      bool listed = false;
+      for (int j = 1; j <= trace.last_repeatable; ++j) listed = listed || trace.triangles[j] == trace.triangles[k];
+      EXPECT_EQ(trace.repeats_from(trace.triangles[k]), listed) << what << ", probe " << i << ", step " << k;
+    }
     for (int k = 1; k < trace.count; ++k) {
       const bool same = same_answer(walked, walk_surface_point(m, probe, trace.triangles[k]));
       if (k <= trace.last_repeatable) {
