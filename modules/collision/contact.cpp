@@ -389,7 +389,7 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
   const SurfacePoint none;
   if (trace) {
     trace->count = 0;
-    trace->last_repeatable = -1;
+    trace->repeatable = false;
   }
   // Ends the walk, saying whether a new walk from a triangle visited after
   // the start would repeat its answer: yes where it stopped for what it
@@ -398,7 +398,7 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
   // then stops at as this one did); no after a jump or out of steps (a new
   // walk has more).
   auto end = [&](const SurfacePoint& sp, bool repeats) {
-    if (trace) trace->last_repeatable = repeats ? trace->count - 1 : -1;
+    if (trace) trace->repeatable = repeats;
     return sp;
   };
   if (start >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||

@@ -80,14 +80,15 @@ struct WalkTrace {
   static constexpr int kCapacity = kMaxWalkSteps + kMaxFanSteps;
   std::array<Index, kCapacity> triangles;  ///< the first `count` are set
   int count = 0;  ///< triangles recorded
-  /// A walk started on triangles[i], 1 <= i <= last_repeatable, with the
+  /// True when a walk started on any of triangles[1 .. count - 1], with the
   /// same probe and no jump test, gives the same answer (the same bits, or
-  /// no answer); -1 when none does.
-  int last_repeatable = -1;
+  /// no answer); false after a jump test or out of steps.
+  bool repeatable = false;
 
   /// True when a walk from `t` would repeat this one's answer.
   bool repeats_from(Index t) const {
-    for (int i = 1; i <= last_repeatable && i < count; ++i)
+    if (!repeatable) return false;
+    for (int i = 1; i < count; ++i)
       if (triangles[i] == t) return true;
     return false;
   }

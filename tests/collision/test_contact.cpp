@@ -635,7 +635,8 @@ struct TraceCheck {
   std::size_t walks = 0;     // walks traced
   std::size_t restarts = 0;  // restarts the trace says repeat, all checked
   std::size_t wrong = 0;     // of those, restarts with another answer
-  // Restarts from triangles the trace leaves out (beyond last_repeatable)
+  // Restarts from triangles the trace leaves out (all of a walk that is not
+  // repeatable)
   // that gave another answer: the trace is right to leave them out.
   std::size_t excluded_differ = 0;
 };
@@ -690,18 +691,18 @@ TraceCheck check_walk_traces(const mesh::SurfaceMesh& m, std::mt19937& rng, int 
       EXPECT_TRUE(nb[0] == trace.triangles[k] || nb[1] == trace.triangles[k] || nb[2] == trace.triangles[k])
           << what << ", probe " << i << ": step " << k << " is not across an edge";
     }
-    EXPECT_LT(trace.last_repeatable, trace.count) << what;
-    // repeats_from(t): t is among triangles[1 .. last_repeatable] (the start
-    // is not, unless the walk came back to it: the caller's first walk may
-    // have declined there for its jump test).
+    // repeats_from(t): t is among triangles[1 .. count - 1] of a repeatable
+    // walk (the start is not, unless the walk came back to it: the caller's
+    // first walk may have declined there for its jump test).
     for (int k = 0; k < trace.count; ++k) {
       bool listed = false;
-      for (int j = 1; j <= trace.last_repeatable; ++j) listed = listed || trace.triangles[j] == trace.triangles[k];
+      for (int j = 1; trace.repeatable && j < trace.count; ++j)
+        listed = listed || trace.triangles[j] == trace.triangles[k];
       EXPECT_EQ(trace.repeats_from(trace.triangles[k]), listed) << what << ", probe " << i << ", step " << k;
     }
     for (int k = 1; k < trace.count; ++k) {
       const bool same = same_answer(walked, walk_surface_point(m, probe, trace.triangles[k]));
-      if (k <= trace.last_repeatable) {
+      if (trace.repeatable) {
         ++c.restarts;
         if (!same) {
           ++c.wrong;
