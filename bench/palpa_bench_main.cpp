@@ -177,7 +177,7 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
     } else if (a == "--repeat") {
       std::uint64_t n = 0;
       if (auto e = number("--repeat", n)) return e;
-      if (n < 1 || n > 100) return std::string("--repeat: between 1 and 100 runs");
+      if (n < 1 || n > 100) return "--repeat: " + std::to_string(n) + " runs is outside 1 to 100";
       o.repeat = static_cast<int>(n);
     } else if (a == "--help" || a == "-h") {
       print_usage();
