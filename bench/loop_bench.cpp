@@ -14,10 +14,11 @@
 //                         [--deform-rate HZ (100)] [--spin-us US] [--no-load-run] [--load-only]
 //                         [--as-built-order] [--no-placement] [--no-warm]
 //
-// --spin-us: busy-wait this long before each tick (at most half a period)
+// --spin-us: busy-wait this long before each tick (at most 85% of a period)
 // instead of sleeping to the deadline, which hides wake-up latency. By
-// default the workbench's choice (haptics::haptic_spin: 40% of the
-// period on a CPU kept for the haptic thread, PALPA_HAPTIC_SPIN to change).
+// default the workbench's choice (haptics::haptic_spin: on a CPU kept for
+// the haptic thread, all of the period but a sleep of 150 us at 1 kHz and
+// 100 us at 4 kHz; PALPA_HAPTIC_SPIN to change).
 // --no-warm: no warm-up run of the last tick during the spin, nor the held
 // one before the tick (LoopConfig::warm_before_tick, on by default as in the
 // workbench).
@@ -206,11 +207,12 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   c.haptic_cpu = haptics::reserved_haptic_cpu();
   c.realtime = true;
   c.record_capacity = 0;
-  // At most half a period: a SCHED_FIFO thread that never sleeps is stopped
-  // by the kernel's real-time throttling (sched_rt_runtime_us: 50 ms in
-  // every second by default), which a full-period spin showed as 50 ms stalls.
+  // The thread sleeps at least haptics::kHapticMinSleepShare of the period:
+  // a SCHED_FIFO thread that never sleeps is stopped by the kernel's
+  // real-time throttling (sched_rt_runtime_us: 50 ms in every second by
+  // default), which a full-period spin showed as 50 ms stalls.
   const haptics::SpinPlan spin = haptics::haptic_spin(rate, c.haptic_cpu);
-  c.spin_us = o.spin_us >= 0 ? std::min(o.spin_us, 0.5e6 / rate) : spin.spin_us;
+  c.spin_us = o.spin_us >= 0 ? std::min(o.spin_us, (1 - haptics::kHapticMinSleepShare) * 1e6 / rate) : spin.spin_us;
   if (o.spin_us >= 0)
     std::printf("  spin: %.0f us before each tick (--spin-us)\n", c.spin_us);
   else

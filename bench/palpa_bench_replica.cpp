@@ -3,6 +3,7 @@
 #include "palpa_bench_replica.h"
 
 #include "core/spsc_queue.h"
+#include "haptics/cpu_plan.h"
 #include "haptics/loop.h"
 #include "haptics/spin_warm.h"
 
@@ -149,7 +150,8 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   // then spin the last spin_us, warming during the spin as HapticLoop does.
   const double period = 1.0 / model->config.rate_hz;
   const auto period_ns = static_cast<std::int64_t>(std::llround(period * 1e9));
-  const auto spin_ns = static_cast<std::int64_t>(std::min(pacing.spin_us * 1e3, 0.5 * static_cast<double>(period_ns)));
+  const auto spin_ns = static_cast<std::int64_t>(
+      std::min(pacing.spin_us * 1e3, (1 - haptics::kHapticMinSleepShare) * static_cast<double>(period_ns)));
   haptics::LoopClock& clock = haptics::monotonic_clock();
   std::array<haptics::ProbeTickInput, haptics::kMaxProbes> inputs{};
   std::array<haptics::ProbeTickResult, haptics::kMaxProbes> results{};

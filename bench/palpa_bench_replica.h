@@ -54,7 +54,7 @@ struct ThreadedFigures {
 };
 struct ThreadedPacing {
   bool level = true;
-  double spin_us = 400;  ///< the workbench's spin at 1 kHz with a CPU kept for the haptic thread
+  double spin_us = 850;  ///< the workbench's spin at 1 kHz with a CPU kept for the haptic thread
   bool warm = true;
   /// With `warm`: the held warm-up at the spin's deadline, whose replica the
   /// tick reads (false: none there, the tick takes the current replica, as

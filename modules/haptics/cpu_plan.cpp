@@ -216,7 +216,11 @@ SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env
     return p;
   }
   const double period_us = 1e6 / rate_hz;
-  const double fallback = haptic_cpu >= 0 ? 0.4 * period_us : 0.0;
+  // The spin leaves a sleep of kHapticSleepUs, between the least share and
+  // 60% of the period; asked-for spins leave at least the least share.
+  const double sleep_us = std::max(kHapticMinSleepShare * period_us, std::min(kHapticSleepUs, 0.6 * period_us));
+  const double fallback = haptic_cpu >= 0 ? period_us - sleep_us : 0.0;
+  const double most_us = (1 - kHapticMinSleepShare) * period_us;
   char text[200];
   if (!env.empty()) {
     // "off" reads as 0 us; otherwise the whole text must be a number >= 0.
@@ -224,10 +228,14 @@ SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env
     char* end = nullptr;
     const double us = off ? 0.0 : std::strtod(env.c_str(), &end);
     if (off || (end != env.c_str() && *end == '\0' && std::isfinite(us) && us >= 0)) {
-      p.spin_us = std::min(us, 0.5 * period_us) + 0.0;  // + 0.0: no "-0"
+      p.spin_us = std::min(us, most_us) + 0.0;  // + 0.0: no "-0"
+      char cap[80] = "";
+      if (p.spin_us < us)
+        std::snprintf(cap, sizeof cap, ", capped: it sleeps %.0f us, %.0f%% of the period", period_us - p.spin_us,
+                      100 * kHapticMinSleepShare);
       if (p.spin_us > 0)
         std::snprintf(text, sizeof text, "the haptic thread spins the last %.0f us of each %.0f us period (PALPA_HAPTIC_SPIN=%s%s)",
-                      p.spin_us, period_us, env.c_str(), p.spin_us < us ? ", capped at half the period" : "");
+                      p.spin_us, period_us, env.c_str(), cap);
       else
         std::snprintf(text, sizeof text, "the haptic thread sleeps to each tick (PALPA_HAPTIC_SPIN=%s)", env.c_str());
       p.note = text;
@@ -237,8 +245,9 @@ SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env
   }
   p.spin_us = fallback;
   if (p.spin_us > 0) {
-    std::snprintf(text, sizeof text, "the haptic thread spins the last %.0f us of each %.0f us period on CPU %d",
-                  p.spin_us, period_us, haptic_cpu);
+    std::snprintf(text, sizeof text,
+                  "the haptic thread spins the last %.0f us of each %.0f us period on CPU %d (it sleeps %.0f us)",
+                  p.spin_us, period_us, haptic_cpu, period_us - p.spin_us);
   } else {
     std::snprintf(text, sizeof text, "the haptic thread sleeps to each tick (no CPU kept for it)");
   }

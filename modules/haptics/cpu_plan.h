@@ -55,16 +55,42 @@ struct SpinPlan {
   std::string note;    ///< one line: what was chosen and why, or what was wrong with `env`
 };
 
-/// With a CPU kept for the haptic thread (haptic_cpu >= 0), 40% of the
-/// period: the thread wakes that early and spins to the tick's start, so
-/// the start no longer waits for the CPU to come out of idle. On the
-/// 16-CPU GPU machine that took missed deadlines from 0.015-0.058% to
-/// 0-0.007% and the start latency's p99 from 47-59 us to under 1 us;
-/// on a 2-core VM it about halved them (docs/PERFORMANCE.md, round 7).
+/// Longest sleep (us) of a haptic thread with a CPU of its own between the
+/// end of one tick and the spin before the next (where the period allows:
+/// plan_haptic_spin). On a virtual machine a CPU that sleeps longer is
+/// given back to the host: KVM keeps polling a halted virtual CPU for up to
+/// 200 us (its halt_poll_ns default) before it schedules other work on the
+/// physical one, and the wake then waits for the host. On the 2-core VM an
+/// empty 1 kHz tick at SCHED_FIFO that slept 600 us a period started 1% of
+/// its ticks 0.8 ms or more late and missed 0.8 to 1.7% of its deadlines;
+/// one that slept 100 us missed 0.02%, its start's p99 0.1 us
+/// (docs/PERFORMANCE.md, round 15).
+inline constexpr double kHapticSleepUs = 100;
+/// Least share of each period a haptic thread with a CPU of its own
+/// sleeps: the kernel throttles a SCHED_FIFO thread that runs more than
+/// 95% of a second (kernel.sched_rt_runtime_us 950000 of 1000000 by
+/// default) for the rest of it, tens of milliseconds with no tick. A
+/// virtual machine that does not report the time its host takes counts
+/// that time as the thread's too (4 to 5% of a spinning thread's time on
+/// the 2-core VM), hence 15% and not 5%.
+inline constexpr double kHapticMinSleepShare = 0.15;
+
+/// With a CPU kept for the haptic thread (haptic_cpu >= 0), the period less
+/// a sleep of kHapticSleepUs, the sleep kept between kHapticMinSleepShare
+/// and 60% of the period: at 1 kHz the thread sleeps 150 us and spins 850
+/// us, at 4 kHz it sleeps 100 us and spins 150 us, at 10 kHz it spins
+/// 40 us (40%, the share used before round 15). The thread wakes that early
+/// and spins to the tick's start, so the start waits neither for the CPU to
+/// come out of idle nor, on a virtual machine, for the host. On the 16-CPU
+/// GPU machine a 40% spin took missed deadlines from 0.015-0.058% to
+/// 0-0.007% and the start latency's p99 from 47-59 us to under 1 us (round
+/// 7); on the 2-core VM, in palpa-loop-bench at 1 kHz, an 850 us spin took
+/// them from 1.75-2.24% (400 us) to 0.21-0.25% (round 15). The CPU is kept for
+/// this thread, so the spin takes no time from the others.
 /// Without a kept CPU, 0 (the spin would take time from other threads).
 /// `env` is PALPA_HAPTIC_SPIN's value: "" (the default above), "off" (0),
-/// or a number of us, capped at half the period (a SCHED_FIFO thread that
-/// never sleeps is throttled by the kernel); anything else keeps the
+/// or a number of us, capped at 85% of the period so that the thread still
+/// sleeps kHapticMinSleepShare of it; anything else keeps the
 /// default and says so in the note. `rate_hz`: the haptic rate, Hz.
 SpinPlan plan_haptic_spin(double rate_hz, int haptic_cpu, const std::string& env);
 

@@ -9,6 +9,7 @@
 #include <pthread.h>
 #include <sched.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -118,18 +119,35 @@ TEST(CpuPlan, ReservingMovesThisThreadAndLaterThreadsOffTheHapticCpu) {
   EXPECT_EQ(affinity_of_this_thread(), p.others);
 }
 
-TEST(HapticSpin, SpinsFortyPercentOfThePeriodOnlyOnAKeptCpu) {
-  // 1 kHz: 1000 us period; 4 kHz: 250 us.
-  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "").spin_us, 400);
-  EXPECT_DOUBLE_EQ(plan_haptic_spin(4000, 0, "").spin_us, 100);
-  EXPECT_NE(plan_haptic_spin(1000, 1, "").note.find("CPU 1"), std::string::npos);
+TEST(HapticSpin, SleepsAHundredMicrosecondsAPeriodOnAKeptCpu) {
+  // 1 kHz: 1000 us period, a 150 us sleep (15% of it); 4 kHz: 250 us, 100 us.
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "").spin_us, 850);
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(4000, 0, "").spin_us, 150);
+  // 10 kHz: a 100 us period sleeps 60% of it (the spin is never below 40%).
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(10000, 0, "").spin_us, 40);
+  // 500 Hz and 100 Hz: at least 15% of the period asleep (the kernel
+  // throttles a real-time thread that runs more than 95% of a second).
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(500, 0, "").spin_us, 1700);
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(100, 0, "").spin_us, 8500);
+  const SpinPlan at_1k = plan_haptic_spin(1000, 1, "");
+  EXPECT_NE(at_1k.note.find("CPU 1"), std::string::npos) << at_1k.note;
+  EXPECT_NE(at_1k.note.find("sleeps 150 us"), std::string::npos) << at_1k.note;
+  // Over a sweep of rates: the sleep (period - spin) is at least 15% of the
+  // period and at most 60% of it, and at most 100 us where 15% is less.
+  for (double rate = 50; rate <= 20000; rate *= 1.25) {
+    const double period = 1e6 / rate;
+    const double sleep = period - plan_haptic_spin(rate, 0, "").spin_us;
+    EXPECT_GE(sleep, 0.15 * period * (1 - 1e-12)) << rate;
+    EXPECT_LE(sleep, 0.6 * period * (1 + 1e-12)) << rate;
+    EXPECT_LE(sleep, std::max(100.0, 0.15 * period) * (1 + 1e-12)) << rate;
+  }
   // No CPU of its own: spinning would take time from the other threads.
   const SpinPlan shared = plan_haptic_spin(1000, -1, "");
   EXPECT_EQ(shared.spin_us, 0);
   EXPECT_NE(shared.note.find("no CPU kept"), std::string::npos) << shared.note;
 }
 
-TEST(HapticSpin, TheEnvironmentTurnsItOffOrSetsItWithinHalfAPeriod) {
+TEST(HapticSpin, TheEnvironmentTurnsItOffOrSetsItLeavingATenthOfThePeriodAsleep) {
   const SpinPlan off = plan_haptic_spin(1000, 1, "off");
   EXPECT_EQ(off.spin_us, 0);
   EXPECT_NE(off.note.find("sleeps to each tick (PALPA_HAPTIC_SPIN=off)"), std::string::npos) << off.note;
@@ -139,19 +157,24 @@ TEST(HapticSpin, TheEnvironmentTurnsItOffOrSetsItWithinHalfAPeriod) {
     EXPECT_FALSE(std::signbit(z.spin_us)) << zero;
     EXPECT_NE(z.note.find("sleeps to each tick"), std::string::npos) << z.note;
   }
-  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "1e3").spin_us, 500);  // capped
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "1e3").spin_us, 850);  // capped
   EXPECT_EQ(plan_haptic_spin(0, 1, "").spin_us, 0);                  // no valid rate: no spin
   EXPECT_EQ(plan_haptic_spin(std::nan(""), 1, "").spin_us, 0);
   EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "150").spin_us, 150);
   EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, -1, "150").spin_us, 150);  // asked for: also without a kept CPU
-  // Never more than half the period (a thread that never sleeps is throttled).
+  // Never more than 85% of the period (a real-time thread that never sleeps
+  // is throttled by the kernel).
+  const SpinPlan most = plan_haptic_spin(1000, 1, "850");
+  EXPECT_DOUBLE_EQ(most.spin_us, 850);
+  EXPECT_EQ(most.note.find("capped"), std::string::npos) << most.note;
   const SpinPlan capped = plan_haptic_spin(1000, 1, "900");
-  EXPECT_DOUBLE_EQ(capped.spin_us, 500);
-  EXPECT_NE(capped.note.find("capped"), std::string::npos) << capped.note;
+  EXPECT_DOUBLE_EQ(capped.spin_us, 850);
+  EXPECT_NE(capped.note.find("capped: it sleeps 150 us, 15% of the period"), std::string::npos) << capped.note;
+  EXPECT_DOUBLE_EQ(plan_haptic_spin(4000, 1, "250").spin_us, 212.5);
   // Garbage keeps the default and names the value.
   for (const char* bad : {"fast", "-5", "12us", "nan", "inf"}) {
     const SpinPlan p = plan_haptic_spin(1000, 1, bad);
-    EXPECT_DOUBLE_EQ(p.spin_us, 400) << bad;
+    EXPECT_DOUBLE_EQ(p.spin_us, 850) << bad;
     EXPECT_NE(p.note.find(std::string("PALPA_HAPTIC_SPIN='") + bad + "'"), std::string::npos) << p.note;
   }
 }
