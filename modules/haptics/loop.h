@@ -86,7 +86,7 @@ struct LoopConfig {
   /// At a quarter of the spin (at most 50 us) before the tick, once more on
   /// the current replica, which the tick then reads (held: a replica
   /// published after it is read from the next tick on). None starts later
-  /// (the held one at most 10 us or half that lead late;
+  /// (the held one as long as 10 us, or half that lead, is left before the tick;
   /// haptics::warm_during_spin), so a warm-up of a few microseconds ends
   /// before its tick; none runs before the first tick with a probe since
   /// start() or restore() (there is no last tick to run again).

@@ -17,10 +17,15 @@ inline constexpr std::int64_t kWarmPollNs = 10'000;
 /// a few microseconds) ends before the tick.
 constexpr std::int64_t warm_deadline_ns(std::int64_t spin_ns) { return std::min<std::int64_t>(spin_ns / 4, 50'000); }
 
-/// How late after that deadline the held warm-up may still start, ns: one
-/// look (kWarmPollNs) or half the deadline, whichever is less.
+/// How late after that deadline the held warm-up may still start, ns: as
+/// long as one look (kWarmPollNs), or half the deadline if less, is left
+/// before the tick (40 us late at 1 kHz with the workbench's spin). A
+/// virtual machine's host takes the CPU for 20 to 50 us about once a
+/// millisecond; with only one look's slack, one tick in twenty lost its held
+/// warm-up to such a pause on the 2-core VM, and those ticks took 2.7 times
+/// as long at p50 (docs/PERFORMANCE.md, round 15).
 constexpr std::int64_t held_slack_ns(std::int64_t spin_ns) {
-  return std::min<std::int64_t>(kWarmPollNs, warm_deadline_ns(spin_ns) / 2);
+  return warm_deadline_ns(spin_ns) - std::min<std::int64_t>(kWarmPollNs, warm_deadline_ns(spin_ns) / 2);
 }
 
 /// Spends the spin before a tick due at `next_ns` warming the tick's data.

@@ -70,7 +70,7 @@ Warmed run_spin(std::int64_t next, std::int64_t spin, std::int64_t start, std::i
 }
 
 constexpr std::int64_t kNext = 10'000'000;  // the tick, ns
-constexpr std::int64_t kSpin = 400'000;     // 400 us: the workbench's spin at 1 kHz
+constexpr std::int64_t kSpin = 400'000;     // 400 us: the workbench's spin at 1 kHz before round 15 (850 us since)
 constexpr std::int64_t kDeadline = kNext - 50'000;  // the held warm-up's time for kSpin
 
 TEST(SpinWarm, TheDeadlineIsAQuarterOfTheSpinAtMost50Us) {
@@ -79,8 +79,11 @@ TEST(SpinWarm, TheDeadlineIsAQuarterOfTheSpinAtMost50Us) {
   EXPECT_EQ(warm_deadline_ns(100'000), 25'000);
   EXPECT_EQ(warm_deadline_ns(40'000), 10'000);
   EXPECT_EQ(warm_deadline_ns(0), 0);
-  // The held warm-up may start one look late, or half the deadline if less.
-  EXPECT_EQ(held_slack_ns(400'000), 10'000);
+  // The held warm-up may start as long as one look, or half the deadline if
+  // less, is left before the tick.
+  EXPECT_EQ(held_slack_ns(850'000), 40'000);  // 1 kHz, the workbench's spin
+  EXPECT_EQ(held_slack_ns(400'000), 40'000);
+  EXPECT_EQ(held_slack_ns(150'000), 27'500);  // 4 kHz: a 37.5 us deadline
   EXPECT_EQ(held_slack_ns(40'000), 5'000);
   EXPECT_EQ(held_slack_ns(0), 0);
 }
@@ -133,12 +136,15 @@ TEST(SpinWarm, AWakeAtTheDeadlineHoldsOneAfterItWarmsNothing) {
   EXPECT_TRUE(r.starts.empty());
   EXPECT_EQ(r.held_start, kDeadline);
   EXPECT_EQ(r.held, 0);
-  // Woke within one look of it: still held, at once.
+  // Woke with one look or more left before the tick: still held, at once.
   const Warmed late = run_spin(kNext, kSpin, kDeadline + 10'000, 3'000, [](std::int64_t) { return 0; });
   EXPECT_EQ(late.held_start, kDeadline + 10'000);
+  const Warmed latest = run_spin(kNext, kSpin, kNext - 10'000, 3'000, [](std::int64_t) { return 0; });
+  EXPECT_EQ(latest.held_start, kNext - 10'000);
+  EXPECT_EQ(latest.held, 0);
   // Woke later than that (a long sleep): no warm-up; the tick takes the
   // current replica itself.
-  const Warmed later = run_spin(kNext, kSpin, kDeadline + 10'001, 3'000, [](std::int64_t) { return 0; });
+  const Warmed later = run_spin(kNext, kSpin, kNext - 9'999, 3'000, [](std::int64_t) { return 0; });
   EXPECT_TRUE(later.starts.empty());
   EXPECT_EQ(later.held_start, -1);
   EXPECT_EQ(later.held, -1);
@@ -193,16 +199,37 @@ TEST(SpinWarm, StopEndsItWithNothingHeld) {
   EXPECT_EQ(calls, 2);
 }
 
-TEST(SpinWarm, AWarmUpEndingWithinALookOfTheDeadlineIsFollowedByTheHeldOne) {
-  // Woke 5 us before the deadline; the warm-up there takes 9 us and ends 4 us
-  // after it: the held warm-up follows at once. With 16 us (ending 11 us
-  // after, later than one look): none.
+TEST(SpinWarm, AWarmUpEndingWithALookLeftBeforeTheTickIsFollowedByTheHeldOne) {
+  // Woke 5 us before the deadline (55 us before the tick); the warm-up there
+  // takes 9 us and ends 4 us after the deadline: the held warm-up follows at
+  // once. With 45 us it ends 40 us after the deadline, one look (10 us)
+  // before the tick: still held. With 46 us (less than a look left): none.
   const Warmed r = run_spin(kNext, kSpin, kDeadline - 5'000, 9'000, [](std::int64_t) { return 0; });
   ASSERT_EQ(r.starts.size(), 1u);
   EXPECT_EQ(r.held_start, kDeadline + 4'000);
-  const Warmed s = run_spin(kNext, kSpin, kDeadline - 5'000, 16'000, [](std::int64_t) { return 0; });
-  ASSERT_EQ(s.starts.size(), 1u);
-  EXPECT_EQ(s.held, -1);
+  // The first warm-up takes `first` ns, the held one 3 us; returns when the
+  // held one started (-1: none).
+  auto held_after = [](std::int64_t first) {
+    StepClock clock;
+    clock.now = kDeadline - 5'000;
+    std::int64_t held_start = -1;
+    const int held = warm_during_spin(
+        clock, kNext, kSpin, [] { return 0; },
+        [&] {
+          clock.now += first;
+          return 0;
+        },
+        [&] {
+          held_start = clock.now;
+          clock.now += 3'000;
+          return 0;
+        },
+        [] { return false; });
+    EXPECT_EQ(held, held_start >= 0 ? 0 : -1);
+    return held_start;
+  };
+  EXPECT_EQ(held_after(45'000), kNext - 10'000);
+  EXPECT_EQ(held_after(46'000), -1);
 }
 
 TEST(SpinWarm, AWarmUpThatRunsPastTheDeadlineIsTheLast) {
