@@ -12,7 +12,7 @@
 //
 // Usage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]
 //                         [--deform-rate HZ (100)] [--spin-us US] [--no-load-run] [--load-only]
-//                         [--as-built-order] [--no-placement] [--no-warm]
+//                         [--as-built-order] [--no-placement] [--no-warm] [--floor-seconds S (5)]
 //
 // --spin-us: busy-wait this long before each tick (at most 85% of a period)
 // instead of sleeping to the deadline, which hides wake-up latency. By
@@ -26,6 +26,10 @@
 // order (mesh::reorder_spatially) every loaded organ gets.
 // --no-placement: no CPU kept for the haptic thread (haptics::reserve_haptic_cpu),
 // llvmpipe with its default worker count.
+// --floor-seconds: before each run, the machine's floor for this long (0:
+// none), with the second core idle and then busy: an empty tick paced as
+// the haptic thread paces its ticks, with no other thread of this program
+// running; the deadlines it misses are the machine's, not the loop's.
 
 #include "devices/loader.h"
 #include "haptics/cpu_plan.h"
@@ -40,6 +44,7 @@
 #include <sched.h>
 #include <signal.h>
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -75,6 +80,7 @@ struct Options {
   bool warm = true;     // LoopConfig::warm_before_tick
   bool spatial_order = true;  // mesh::reorder_spatially, as load_organ numbers every organ
   bool placement = true;      // haptics::reserve_haptic_cpu
+  double floor_seconds = 5;   // the machine's floor before each run (0: none)
   int width = 640;   // offscreen frame, pixels
   int height = 480;
 };
@@ -83,7 +89,7 @@ struct Options {
   std::fprintf(stderr,
                "palpa-loop-bench: %s\nusage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]\n"
                "                        [--deform-rate HZ] [--spin-us US] [--no-load-run] [--load-only]\n"
-               "                        [--as-built-order] [--no-placement] [--no-warm]\n",
+               "                        [--as-built-order] [--no-placement] [--no-warm] [--floor-seconds S]\n",
                why);
   std::exit(2);
 }
@@ -120,6 +126,9 @@ Options parse(int argc, char** argv) {
       o.placement = false;
     } else if (a == "--no-warm") {
       o.warm = false;
+    } else if (a == "--floor-seconds") {
+      o.floor_seconds = std::atof(value().c_str());
+      if (!(o.floor_seconds >= 0 && o.floor_seconds <= 600)) usage("--floor-seconds must be between 0 and 600");
     } else {
       usage(("unknown option " + a).c_str());
     }
@@ -167,6 +176,63 @@ void stop_load(pid_t pid) {
   if (pid <= 0) return;
   kill(pid, SIGKILL);
   waitpid(pid, nullptr, 0);
+}
+
+// The machine's own floor for a run: an empty tick paced as the haptic
+// thread paces its ticks (the same CPU, real-time policy, timer slack,
+// sleep and spin), for `seconds`, with no other thread of this program
+// running. Deadline misses and skipped periods are counted as HapticLoop
+// counts them, so a run cannot be expected to miss fewer: on a virtual
+// machine they are the host's (it deschedules a virtual CPU that sleeps;
+// docs/PERFORMANCE.md, round 15).
+struct Floor {
+  std::uint64_t ticks = 0, misses = 0, skipped = 0;
+  double start_p99_us = 0, start_p999_us = 0, start_max_us = 0;
+  bool realtime = false;
+};
+
+Floor measure_floor(double rate, double spin_us, int cpu, int priority, double seconds) {
+  Floor f;
+  std::thread t([&] {
+    if (cpu >= 0) {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      CPU_SET(cpu, &set);
+      pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+    }
+    sched_param sp{};
+    sp.sched_priority = priority;
+    f.realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0;
+    prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+    haptics::LoopClock& clock = haptics::monotonic_clock();
+    const auto period = static_cast<std::int64_t>(std::llround(1e9 / rate));
+    const auto spin = static_cast<std::int64_t>(spin_us * 1e3);
+    const auto n = static_cast<std::size_t>(seconds * rate);
+    std::vector<std::int64_t> late;
+    late.reserve(n);
+    std::int64_t next = clock.now_ns() + period;
+    for (std::size_t k = 0; k < n; ++k) {
+      clock.sleep_until(next, spin);
+      const std::int64_t end = clock.now_ns();  // the empty tick
+      late.push_back(end - next);
+      if (end > next + period) ++f.misses;
+      next += period;
+      if (end > next) {
+        const std::int64_t skip = (end - next) / period + 1;
+        next += skip * period;
+        f.skipped += static_cast<std::uint64_t>(skip);
+      }
+    }
+    f.ticks = n;
+    std::sort(late.begin(), late.end());
+    if (!late.empty()) {
+      f.start_p99_us = 1e-3 * static_cast<double>(late[late.size() * 99 / 100]);
+      f.start_p999_us = 1e-3 * static_cast<double>(late[late.size() * 999 / 1000]);
+      f.start_max_us = 1e-3 * static_cast<double>(late.back());
+    }
+  });
+  t.join();
+  return f;
 }
 
 void print_timing(const char* what, const haptics::TimingSummary& t) {
@@ -221,6 +287,26 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   if (c.spin_us > 0)
     std::printf("  warm-up of the last tick during the spin, and held for the tick at its deadline: %s\n",
                 o.warm ? "on" : "off (--no-warm)");
+  if (o.floor_seconds > 0) {
+    // Before the loop's threads exist: once with the other CPU idle and once
+    // with it busy (as the loop's deformation and rendering keep it; on a
+    // virtual machine the host then has less room for its own work).
+    for (const bool busy : {false, true}) {
+      const pid_t floor_load = busy ? start_load() : -1;
+      const Floor f = measure_floor(rate, c.spin_us, c.haptic_cpu, c.realtime_priority, o.floor_seconds);
+      stop_load(floor_load);
+      std::printf("  machine floor, second core %s (an empty tick paced the same way for %.0f s, %s): missed "
+                  "deadlines %llu (%.4f %%), skipped periods %llu (a tick in %.2f %% of the periods); start latency "
+                  "p99 %.2f p99.9 %.2f max %.2f us\n",
+                  busy ? "busy" : "idle", o.floor_seconds, f.realtime ? "SCHED_FIFO" : "normal priority",
+                  static_cast<unsigned long long>(f.misses),
+                  f.ticks ? 100.0 * static_cast<double>(f.misses) / static_cast<double>(f.ticks) : 0.0,
+                  static_cast<unsigned long long>(f.skipped),
+                  f.ticks ? 100.0 * static_cast<double>(f.ticks) / static_cast<double>(f.ticks + f.skipped) : 0.0,
+                  f.start_p99_us, f.start_p999_us, f.start_max_us);
+      std::fflush(stdout);
+    }
+  }
   haptics::HapticLoop loop(scene.mesh, scene.materials, {}, c, std::move(probes));
 
   pid_t load_pid = load ? start_load() : -1;
