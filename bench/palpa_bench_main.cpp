@@ -87,6 +87,8 @@ struct Options {
   bool threaded_both = false;  // ... with both replicas stepped (before issue 8)
   bool threaded_warm = true;   // ... warming during the spin before each tick, as HapticLoop
   bool threaded_hold = true;   // ... and reading the replica held from the warm-up at the deadline
+  double threaded_spin_us = -1;  // ... spinning this long before each tick (-1: the workbench's plan)
+  bool threaded_place = true;    // ... on a CPU of its own, the step on the others, as the workbench
   bool spatial_order = true;   // mesh::reorder_spatially, as load_organ numbers every organ
   std::string only;      // only meshes whose name contains this
   int repeat = 1;        // contact queries: runs of each method's path, least time per query kept
@@ -114,6 +116,10 @@ void print_usage() {
       "                     (LoopConfig::warm_before_tick)\n"
       "  --no-hold          in that run, no held warm-up at the spin's deadline: the tick takes the\n"
       "                     current replica itself (the warm-up as before the hold, for comparison)\n"
+      "  --spin-us US       in that run, spin US microseconds before each tick (at most 85%% of the\n"
+      "                     period) instead of the workbench's plan for a kept CPU (haptics::plan_haptic_spin)\n"
+      "  --no-placement     in that run, no CPU kept for the ticking thread (the workbench keeps one,\n"
+      "                     haptics::reserve_haptic_cpu): both threads where the scheduler puts them\n"
       "  --as-built-order   keep each mesh's vertex order as generated or read (before issue 8's\n"
       "                     spatial order; load_organ numbers organs along a Hilbert curve)\n"
       "  --only TEXT        only the meshes whose name contains TEXT (=NAME: only the mesh NAME)\n",
@@ -166,6 +172,13 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       o.threaded_warm = false;
     } else if (a == "--no-hold") {
       o.threaded_hold = false;
+    } else if (a == "--no-placement") {
+      o.threaded_place = false;
+    } else if (a == "--spin-us") {
+      std::uint64_t n = 0;
+      if (auto e = number("--spin-us", n)) return e;
+      if (n > 1000) return "--spin-us: " + std::to_string(n) + " us is more than the 1000 us period";
+      o.threaded_spin_us = static_cast<double>(n);
     } else if (a == "--as-built-order") {
       o.spatial_order = false;
     } else if (a == "--only") {
@@ -621,19 +634,25 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       res.replicas.push_back(rr);
       if (opt.threaded) {
         // The haptic thread's wait as in the workbench with a CPU kept for it:
-        // a spin of haptics::plan_haptic_spin's default, with the warm-up.
+        // a spin of haptics::plan_haptic_spin's default (or --spin-us), with the warm-up.
         bench::ThreadedPacing pacing;
         pacing.level = !opt.threaded_both;
-        pacing.spin_us = haptics::plan_haptic_spin(1 / kTickPeriod, 0, "").spin_us;
+        pacing.spin_us = opt.threaded_spin_us >= 0 ? opt.threaded_spin_us
+                                                   : haptics::plan_haptic_spin(1 / kTickPeriod, 0, "").spin_us;
         pacing.warm = opt.threaded_warm;
         pacing.hold = opt.threaded_hold;
+        pacing.place = opt.threaded_place;
         ThreadRow th{mc.name, V, bench::measure_threaded(model, paths, probes, plan.warmup, plan.ticks, pacing)};
         const double warm_per_tick =
             static_cast<double>(th.f.warm_ups) / static_cast<double>(std::max<std::size_t>(1, plan.warmup + plan.ticks));
-        std::printf("[%s] threaded (step on another thread, paced at 1 kHz, spin %.0f us, %.2f warm-ups per tick), "
+        char placed[96] = "threads not placed";
+        if (th.f.haptic_cpu >= 0)
+          std::snprintf(placed, sizeof placed, "ticks on CPU %d at %s, the step on the others", th.f.haptic_cpu,
+                        th.f.realtime ? "SCHED_FIFO" : "normal priority");
+        std::printf("[%s] threaded (step on another thread, paced at 1 kHz, spin %.0f us, %.2f warm-ups per tick, %s), "
                     "3 probes: tick p50 %.3f p99 %.3f p99.9 %.3f us; step p50 %.3f p99 %.3f ms (%zu steps, %zu merged); "
                     "%zu tick slots skipped (the thread held up past them)\n",
-                    mc.name.c_str(), pacing.spin_us, warm_per_tick, th.f.tick.p50_us, th.f.tick.p99_us,
+                    mc.name.c_str(), pacing.spin_us, warm_per_tick, placed, th.f.tick.p50_us, th.f.tick.p99_us,
                     th.f.tick.p999_us, th.f.step.p50_us * 1e-3, th.f.step.p99_us * 1e-3, th.f.steps, th.f.merged,
                     th.f.skipped);
         std::printf("[%s] threaded, 3 probes: ticks on the replica held from the last warm-up %zu p50 %.3f p99 %.3f us "
@@ -650,6 +669,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         t["steps"] = th.f.steps;
         t["merged"] = th.f.merged;
         t["spin_us"] = pacing.spin_us;
+        t["haptic_cpu"] = th.f.haptic_cpu;
+        t["realtime"] = th.f.realtime;
         t["warm_ups_per_tick"] = warm_per_tick;
         t["on_held_replica"] = latency_json(th.f.tick_held);
         t["held_behind"] = th.f.held_behind;
@@ -1154,8 +1175,10 @@ void print_tables(const Results& r, const bench::ClockOverhead& clock, const Opt
     std::printf("\n");
   }
   std::printf("\nTiming: steady_clock::now() around each tick/query/step, nothing subtracted; clock overhead in "
-              "this run (two back-to-back reads): min %.0f ns, p50 %.0f ns, p99 %.0f ns. Threads not pinned.\n",
-              clock.min_ns, clock.p50_ns, clock.p99_ns);
+              "this run (two back-to-back reads): min %.0f ns, p50 %.0f ns, p99 %.0f ns. Threads not pinned, except in "
+              "the threaded run (%s).\n",
+              clock.min_ns, clock.p50_ns, clock.p99_ns,
+              opt.threaded_place ? "the ticking thread on a CPU of its own, as the workbench" : "--no-placement: not pinned");
   std::printf("For scale (from the issue): CGAL alone on a 2M-triangle sphere along a sliding path, p50 1.1 us "
               "without hint, 0.55 us with one, on a 2-core VM.\n");
 }

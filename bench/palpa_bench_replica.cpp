@@ -7,12 +7,17 @@
 #include "haptics/loop.h"
 #include "haptics/spin_warm.h"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <thread>
 
 namespace palpa::bench {
@@ -34,6 +39,34 @@ bool same_bits(const deform::DeformableSurface& a, const deform::DeformableSurfa
   if (std::memcmp(va.data(), vb.data(), va.size() * sizeof(va[0])) != 0) return false;
   const auto sa = a.stream(), sb = b.stream();
   return std::memcmp(sa.data(), sb.data(), sa.size_bytes()) == 0;
+}
+
+// The CPUs this thread may run on.
+std::vector<int> allowed_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  std::vector<int> cpus;
+  if (pthread_getaffinity_np(pthread_self(), sizeof set, &set) != 0) return cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &set)) cpus.push_back(c);
+  return cpus;
+}
+
+void set_cpus(const std::vector<int>& cpus) {
+  if (cpus.empty()) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (int c : cpus) CPU_SET(c, &set);
+  pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+}
+
+// The workbench's placement for this machine (haptics::reserve_haptic_cpu's
+// choice), without changing any thread.
+haptics::CpuPlan workbench_placement() {
+  std::ifstream in("/proc/interrupts");
+  std::stringstream text;
+  text << in.rdbuf();
+  return haptics::plan_cpus(allowed_cpus(), haptics::device_interrupts_per_cpu(text.str()), "");
 }
 
 }  // namespace
@@ -113,8 +146,24 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   step_ns.reserve(ticks);
   std::size_t merged = 0;
 
+  // Placement as in the workbench: this thread on a CPU of its own at
+  // SCHED_FIFO where allowed, the deformation thread on the others.
+  const std::vector<int> cpus_before = allowed_cpus();
+  int policy_before = SCHED_OTHER;
+  sched_param param_before{};
+  pthread_getschedparam(pthread_self(), &policy_before, &param_before);
+  const haptics::CpuPlan plan = pacing.place ? workbench_placement() : haptics::CpuPlan{};
+  bool realtime = false;
+  if (plan.haptic_cpu >= 0) {
+    set_cpus({plan.haptic_cpu});
+    sched_param p{};
+    p.sched_priority = haptics::LoopConfig{}.realtime_priority;
+    realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+  }
+
   // The deformation thread: HapticLoop::process.
   std::thread deform([&] {
+    if (plan.haptic_cpu >= 0) set_cpus(plan.others);
     std::vector<deform::Contact> scratch;
     haptics::DeformRequest r, later;
     while (!stop.load(std::memory_order_relaxed)) {
@@ -222,7 +271,13 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
   stop.store(true);
   deform.join();
+  if (plan.haptic_cpu >= 0) {
+    pthread_setschedparam(pthread_self(), policy_before, &param_before);
+    set_cpus(cpus_before);
+  }
   ThreadedFigures f;
+  f.haptic_cpu = plan.haptic_cpu;
+  f.realtime = realtime;
   f.tick = latency_of(tick_ns);
   f.steps = step_ns.size();
   f.merged = merged;

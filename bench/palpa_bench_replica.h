@@ -35,6 +35,10 @@ ReplicaStepFigures measure_replica_steps(const haptics::SessionModel& model,
 /// tick as the haptic thread of the workbench does: it sleeps, then spins
 /// the last `spin_us` (us), and with `warm` runs the warm-up of
 /// LoopConfig::warm_before_tick during the spin (haptics::warm_during_spin).
+/// With `place`, the threads run where the workbench runs them: this thread
+/// on one CPU of its own (chosen as haptics::reserve_haptic_cpu chooses it),
+/// at SCHED_FIFO where the process may, and the deformation thread on the
+/// others; this thread's CPUs and policy are restored afterwards.
 /// Per tick and per step, us.
 struct ThreadedFigures {
   Latency tick, step;
@@ -51,6 +55,8 @@ struct ThreadedFigures {
   /// held up past them (HapticLoop skips them the same way).
   std::size_t skipped = 0;
   Latency warm;  ///< each warm-up between timed ticks (at most 4 per tick kept)
+  int haptic_cpu = -1;    ///< the CPU the ticking thread had to itself (-1: not placed)
+  bool realtime = false;  ///< the ticking thread ran at SCHED_FIFO
 };
 struct ThreadedPacing {
   bool level = true;
@@ -60,6 +66,9 @@ struct ThreadedPacing {
   /// tick reads (false: none there, the tick takes the current replica, as
   /// before the hold).
   bool hold = true;
+  /// Threads placed as in the workbench (see measure_threaded); false: where
+  /// the scheduler puts them.
+  bool place = true;
 };
 ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionModel>& model, const ProbePaths& paths,
                                  int probes, std::size_t warmup, std::size_t ticks, const ThreadedPacing& pacing);
