@@ -119,7 +119,7 @@ TEST(CpuPlan, ReservingMovesThisThreadAndLaterThreadsOffTheHapticCpu) {
   EXPECT_EQ(affinity_of_this_thread(), p.others);
 }
 
-TEST(HapticSpin, SleepsAHundredMicrosecondsAPeriodOnAKeptCpu) {
+TEST(HapticSpin, SleepsAHundredMicrosecondsOrFifteenPercentOfThePeriodOnAKeptCpu) {
   // 1 kHz: 1000 us period, a 150 us sleep (15% of it); 4 kHz: 250 us, 100 us.
   EXPECT_DOUBLE_EQ(plan_haptic_spin(1000, 1, "").spin_us, 850);
   EXPECT_DOUBLE_EQ(plan_haptic_spin(4000, 0, "").spin_us, 150);
@@ -147,7 +147,7 @@ TEST(HapticSpin, SleepsAHundredMicrosecondsAPeriodOnAKeptCpu) {
   EXPECT_NE(shared.note.find("no CPU kept"), std::string::npos) << shared.note;
 }
 
-TEST(HapticSpin, TheEnvironmentTurnsItOffOrSetsItLeavingATenthOfThePeriodAsleep) {
+TEST(HapticSpin, TheEnvironmentTurnsItOffOrSetsItLeavingFifteenPercentOfThePeriodAsleep) {
   const SpinPlan off = plan_haptic_spin(1000, 1, "off");
   EXPECT_EQ(off.spin_us, 0);
   EXPECT_NE(off.note.find("sleeps to each tick (PALPA_HAPTIC_SPIN=off)"), std::string::npos) << off.note;
