@@ -194,12 +194,7 @@ struct Floor {
 Floor measure_floor(double rate, double spin_us, int cpu, int priority, double seconds) {
   Floor f;
   std::thread t([&] {
-    if (cpu >= 0) {
-      cpu_set_t set;
-      CPU_ZERO(&set);
-      CPU_SET(cpu, &set);
-      pthread_setaffinity_np(pthread_self(), sizeof set, &set);
-    }
+    if (cpu >= 0) haptics::run_this_thread_on({cpu});
     sched_param sp{};
     sp.sched_priority = priority;
     f.realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0;

@@ -15,9 +15,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
 #include <memory>
-#include <sstream>
 #include <thread>
 
 namespace palpa::bench {
@@ -39,34 +37,6 @@ bool same_bits(const deform::DeformableSurface& a, const deform::DeformableSurfa
   if (std::memcmp(va.data(), vb.data(), va.size() * sizeof(va[0])) != 0) return false;
   const auto sa = a.stream(), sb = b.stream();
   return std::memcmp(sa.data(), sb.data(), sa.size_bytes()) == 0;
-}
-
-// The CPUs this thread may run on.
-std::vector<int> allowed_cpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  std::vector<int> cpus;
-  if (pthread_getaffinity_np(pthread_self(), sizeof set, &set) != 0) return cpus;
-  for (int c = 0; c < CPU_SETSIZE; ++c)
-    if (CPU_ISSET(c, &set)) cpus.push_back(c);
-  return cpus;
-}
-
-void set_cpus(const std::vector<int>& cpus) {
-  if (cpus.empty()) return;
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  for (int c : cpus) CPU_SET(c, &set);
-  pthread_setaffinity_np(pthread_self(), sizeof set, &set);
-}
-
-// The workbench's placement for this machine (haptics::reserve_haptic_cpu's
-// choice), without changing any thread.
-haptics::CpuPlan workbench_placement() {
-  std::ifstream in("/proc/interrupts");
-  std::stringstream text;
-  text << in.rdbuf();
-  return haptics::plan_cpus(allowed_cpus(), haptics::device_interrupts_per_cpu(text.str()), "");
 }
 
 }  // namespace
@@ -148,14 +118,14 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
 
   // Placement as in the workbench: this thread on a CPU of its own at
   // SCHED_FIFO where allowed, the deformation thread on the others.
-  const std::vector<int> cpus_before = allowed_cpus();
+  const std::vector<int> cpus_before = haptics::cpus_of_this_thread();
   int policy_before = SCHED_OTHER;
   sched_param param_before{};
   pthread_getschedparam(pthread_self(), &policy_before, &param_before);
-  const haptics::CpuPlan plan = pacing.place ? workbench_placement() : haptics::CpuPlan{};
+  const haptics::CpuPlan plan = pacing.place ? haptics::decide_haptic_cpu("") : haptics::CpuPlan{};
   bool realtime = false;
   if (plan.haptic_cpu >= 0) {
-    set_cpus({plan.haptic_cpu});
+    haptics::run_this_thread_on({plan.haptic_cpu});
     sched_param p{};
     p.sched_priority = haptics::LoopConfig{}.realtime_priority;
     realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
@@ -163,7 +133,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
 
   // The deformation thread: HapticLoop::process.
   std::thread deform([&] {
-    if (plan.haptic_cpu >= 0) set_cpus(plan.others);
+    if (plan.haptic_cpu >= 0) haptics::run_this_thread_on(plan.others);
     std::vector<deform::Contact> scratch;
     haptics::DeformRequest r, later;
     while (!stop.load(std::memory_order_relaxed)) {
@@ -273,7 +243,7 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
   deform.join();
   if (plan.haptic_cpu >= 0) {
     pthread_setschedparam(pthread_self(), policy_before, &param_before);
-    set_cpus(cpus_before);
+    haptics::run_this_thread_on(cpus_before);
   }
   ThreadedFigures f;
   f.haptic_cpu = plan.haptic_cpu;

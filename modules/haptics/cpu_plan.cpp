@@ -22,6 +22,13 @@ namespace {
 
 std::atomic<int> g_reserved{-1};
 
+std::string read_text(const char* path) {
+  std::ifstream f(path);
+  std::ostringstream out;
+  out << f.rdbuf();
+  return f ? out.str() : std::string();
+}
+
 }  // namespace
 
 std::vector<unsigned long long> device_interrupts_per_cpu(const std::string& proc_interrupts_text) {
@@ -100,34 +107,42 @@ CpuPlan plan_cpus(const std::vector<int>& allowed, const std::vector<unsigned lo
   return plan;
 }
 
+std::vector<int> cpus_of_this_thread() {
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  std::vector<int> cpus;
+  if (sched_getaffinity(0, sizeof allowed, &allowed) != 0) return cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &allowed)) cpus.push_back(c);
+  return cpus;
+}
+
+int run_this_thread_on(const std::vector<int>& cpus) {
+  if (cpus.empty()) return EINVAL;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (int c : cpus) CPU_SET(c, &set);
+  return pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+}
+
+CpuPlan decide_haptic_cpu(const std::string& env) {
+  const std::vector<int> cpus = cpus_of_this_thread();
+  if (cpus.empty()) {
+    CpuPlan p;
+    p.note = std::string("no CPU kept for the haptic thread: sched_getaffinity failed (") + std::strerror(errno) + ")";
+    return p;
+  }
+  return plan_cpus(cpus, device_interrupts_per_cpu(read_text("/proc/interrupts")), env);
+}
+
 CpuPlan reserve_haptic_cpu() {
   static const CpuPlan plan = [] {
-    cpu_set_t allowed;
-    CPU_ZERO(&allowed);
-    if (sched_getaffinity(0, sizeof allowed, &allowed) != 0) {
-      CpuPlan p;
-      p.note = std::string("no CPU kept for the haptic thread: sched_getaffinity failed (") + std::strerror(errno) + ")";
-      return p;
-    }
-    std::vector<int> cpus;
-    for (int c = 0; c < CPU_SETSIZE; ++c)
-      if (CPU_ISSET(c, &allowed)) cpus.push_back(c);
-    std::string text;
-    if (std::FILE* f = std::fopen("/proc/interrupts", "r")) {
-      char buf[4096];
-      std::size_t n;
-      while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) text.append(buf, n);
-      std::fclose(f);
-    }
     const char* env = std::getenv("PALPA_HAPTIC_CPU");
-    CpuPlan p = plan_cpus(cpus, device_interrupts_per_cpu(text), env ? env : "");
+    CpuPlan p = decide_haptic_cpu(env ? env : "");
     if (p.haptic_cpu < 0) return p;
-    cpu_set_t rest;
-    CPU_ZERO(&rest);
-    for (int c : p.others) CPU_SET(c, &rest);
-    if (const int rc = pthread_setaffinity_np(pthread_self(), sizeof rest, &rest); rc != 0) {
+    if (const int rc = run_this_thread_on(p.others); rc != 0) {
       CpuPlan none;
-      none.others = cpus;
+      none.others = cpus_of_this_thread();
       none.note = std::string("no CPU kept for the haptic thread: pthread_setaffinity_np failed (") + std::strerror(rc) + ")";
       return none;
     }
@@ -145,17 +160,6 @@ CpuPlan reserve_haptic_cpu() {
 }
 
 int reserved_haptic_cpu() { return g_reserved.load(); }
-
-namespace {
-
-std::string read_text(const char* path) {
-  std::ifstream f(path);
-  std::ostringstream out;
-  out << f.rdbuf();
-  return f ? out.str() : std::string();
-}
-
-}  // namespace
 
 std::string cgroup_of_cpu_controller(const std::string& text, bool* on_v1) {
   std::istringstream in(text);

@@ -33,6 +33,20 @@ struct CpuPlan {
 /// for reserved_haptic_cpu(); calling it again returns the first plan.
 CpuPlan reserve_haptic_cpu();
 
+/// reserve_haptic_cpu's decision for the calling thread, without applying
+/// it: the CPUs it may use and /proc/interrupts through plan_cpus, with
+/// `env` as PALPA_HAPTIC_CPU's value. palpa-bench's threaded run places its
+/// threads by it.
+CpuPlan decide_haptic_cpu(const std::string& env);
+
+/// The CPUs the calling thread may run on (sched_getaffinity), ascending;
+/// empty when the system does not say (errno tells why).
+std::vector<int> cpus_of_this_thread();
+
+/// Lets the calling thread run only on `cpus`. Returns 0, or the error
+/// pthread_setaffinity_np gave (EINVAL for an empty list).
+int run_this_thread_on(const std::vector<int>& cpus);
+
 /// The CPU reserve_haptic_cpu() kept, or -1 (not called, or nothing kept).
 int reserved_haptic_cpu();
 

@@ -53,11 +53,7 @@ void nap_us(long us) {
 }
 
 void pin_to_cpu(int cpu) {
-  if (cpu < 0) return;
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+  if (cpu >= 0) run_this_thread_on({cpu});
 }
 
 // Touches a stack region so the real-time loop takes no page faults on it.

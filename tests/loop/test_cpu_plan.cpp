@@ -87,6 +87,33 @@ TEST(CpuPlan, OneCpuOrOffKeepsNothingAndABadChoiceSaysWhy) {
   }
 }
 
+TEST(CpuPlan, ReadsAndSetsTheCpusOfTheCallingThreadAndDecidesWithoutApplying) {
+  // On a thread of its own, so the test's thread keeps its CPUs.
+  std::thread([] {
+    const std::vector<int> mine = affinity_of_this_thread();
+    EXPECT_EQ(cpus_of_this_thread(), mine);
+    EXPECT_EQ(run_this_thread_on({}), EINVAL);
+    EXPECT_EQ(affinity_of_this_thread(), mine);
+    // The decision changes nothing: "off" keeps nothing and leaves every CPU
+    // to the others; naming the last allowed CPU keeps it.
+    const CpuPlan off = decide_haptic_cpu("off");
+    EXPECT_EQ(off.haptic_cpu, -1);
+    EXPECT_EQ(off.others, mine);
+    if (mine.size() >= 2) {
+      const CpuPlan last = decide_haptic_cpu(std::to_string(mine.back()));
+      EXPECT_EQ(last.haptic_cpu, mine.back());
+      EXPECT_EQ(last.others, std::vector<int>(mine.begin(), mine.end() - 1));
+    } else {
+      std::printf("one CPU allowed: no CPU to keep (%s)\n", decide_haptic_cpu("").note.c_str());
+    }
+    EXPECT_EQ(affinity_of_this_thread(), mine);
+    ASSERT_FALSE(mine.empty());
+    EXPECT_EQ(run_this_thread_on({mine.front()}), 0);
+    EXPECT_EQ(affinity_of_this_thread(), std::vector<int>{mine.front()});
+    EXPECT_EQ(cpus_of_this_thread(), std::vector<int>{mine.front()});
+  }).join();
+}
+
 TEST(CpuPlan, ReservingMovesThisThreadAndLaterThreadsOffTheHapticCpu) {
   const std::vector<int> before = affinity_of_this_thread();
   const bool lp_was_set = std::getenv("LP_NUM_THREADS") != nullptr;
