@@ -55,6 +55,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -127,8 +128,11 @@ Options parse(int argc, char** argv) {
     } else if (a == "--no-warm") {
       o.warm = false;
     } else if (a == "--floor-seconds") {
-      o.floor_seconds = std::atof(value().c_str());
-      if (!(o.floor_seconds >= 0 && o.floor_seconds <= 600)) usage("--floor-seconds must be between 0 and 600");
+      const std::string v = value();
+      char* end = nullptr;
+      o.floor_seconds = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !(o.floor_seconds >= 0 && o.floor_seconds <= 600))
+        usage(("--floor-seconds: '" + v + "' is not a number of seconds from 0 to 600").c_str());
     } else {
       usage(("unknown option " + a).c_str());
     }

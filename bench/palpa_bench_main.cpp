@@ -177,7 +177,13 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
     } else if (a == "--spin-us") {
       std::uint64_t n = 0;
       if (auto e = number("--spin-us", n)) return e;
-      if (n > 1000) return "--spin-us: " + std::to_string(n) + " us is more than the 1000 us period";
+      // The spin leaves the thread asleep for haptics::kHapticMinSleepShare
+      // of the period, as plan_haptic_spin caps it.
+      const auto most = static_cast<std::uint64_t>((1 - haptics::kHapticMinSleepShare) * kTickPeriod * 1e6 + 0.5);
+      if (n > most)
+        return "--spin-us: " + std::to_string(n) + " us is more than " + std::to_string(most) + " us, " +
+               std::to_string(static_cast<int>((1 - haptics::kHapticMinSleepShare) * 100 + 0.5)) + "% of the " +
+               std::to_string(static_cast<int>(kTickPeriod * 1e6 + 0.5)) + " us period";
       o.threaded_spin_us = static_cast<double>(n);
     } else if (a == "--as-built-order") {
       o.spatial_order = false;
