@@ -636,8 +636,8 @@ struct TraceCheck {
   std::size_t restarts = 0;  // restarts the trace says repeat, all checked
   std::size_t wrong = 0;     // of those, restarts with another answer
   // Restarts from triangles the trace leaves out (all of a walk that is not
-  // repeatable)
-  // that gave another answer: the trace is right to leave them out.
+  // repeatable) that gave another answer: the trace is right to leave them
+  // out.
   std::size_t excluded_differ = 0;
 };
 
@@ -749,7 +749,8 @@ TEST(ContactWalk, AWalkFromALaterTriangleOfItsTraceEndsAsTheTraceSays) {
     total.excluded_differ += c.excluded_differ;
   }
   // The left-out triangles are left out for a reason: some restarts from
-  // them end otherwise (a walk that stepped back or ran out of steps).
+  // them end otherwise (these walks have no jump test, so they are the
+  // walks that ran out of steps).
   EXPECT_GT(total.excluded_differ, 0u);
 }
 
