@@ -3,6 +3,10 @@
 
 #include "collision/vertex_tree.h"
 
+#include "mesh/surface_mesh.h"
+
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -83,6 +87,56 @@ VertexTree::VertexTree(std::span<const Vec3> positions, int leaf_size) {
     const Node& nd = nodes_[k];
     if (nd.left != kNoIndex) continue;
     for (Index i = nd.begin; i < nd.end; ++i) leaf_of_[i] = k;
+  }
+}
+
+double triangle_reach(const Vec3& a, const Vec3& b, const Vec3& c) {
+  // The farthest point is a vertex of the corners' Voronoi diagram cut by
+  // the triangle: the circumcentre when it lies in the triangle, else where
+  // a short edge's perpendicular bisector meets the longest edge,
+  // |ac|^2 |ab| / (|ab|^2 + |ac|^2 - |bc|^2) from the end a they share.
+  const double ab = (b - a).squaredNorm(), bc = (c - b).squaredNorm(), ca = (a - c).squaredNorm();
+  if (!std::isfinite(ab + bc + ca)) return std::numeric_limits<double>::quiet_NaN();
+  const double twice_area = (b - a).cross(c - a).norm();
+  const double longest = std::max({ab, bc, ca});
+  if (2 * longest <= ab + bc + ca && twice_area > 0) return std::sqrt(ab * bc * ca) / (2 * twice_area);
+  // The two other edges' squared lengths, from each end of the longest.
+  double s1 = ca, s2 = bc;                   // longest ab: from a, from b
+  if (longest == bc) s1 = ab, s2 = ca;       // longest bc: from b, from c
+  else if (longest == ca) s1 = bc, s2 = ab;  // longest ca: from c, from a
+  const double root = std::sqrt(longest);
+  double reach = 0;
+  if (longest + s1 - s2 > 0) reach = std::max(reach, s1 * root / (longest + s1 - s2));
+  if (longest + s2 - s1 > 0) reach = std::max(reach, s2 * root / (longest + s2 - s1));
+  return reach;
+}
+
+VertexTree::VertexTree(const mesh::SurfaceMesh& mesh, int leaf_size)
+    : VertexTree(std::span<const Vec3>(mesh.positions), leaf_size) {
+  const std::size_t n = mesh.vertex_count();
+  std::vector<double> reach(n, 0.0);
+  for (const mesh::Triangle& t : mesh.triangles) {
+    if (t[0] >= n || t[1] >= n || t[2] >= n) return;  // not a mesh: no bound
+    const double r = triangle_reach(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]);
+    if (!std::isfinite(r)) return;  // a non-finite corner: no bound
+    for (Index v : t) reach[v] = std::max(reach[v], r);
+  }
+  for (const Vec3& p : mesh.positions)
+    if (!p.allFinite()) return;
+  point_reach_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) point_reach_[i] = float_up(reach[order_[i]]);
+  // Nodes come in pre-order, so each node's children follow it: fill from
+  // the back (a leaf from its points, an inner node from its children).
+  node_reach_.assign(nodes_.size(), 0.0f);
+  for (std::size_t k = nodes_.size(); k-- > 0;) {
+    const Node& nd = nodes_[k];
+    float r = 0;
+    if (nd.left == kNoIndex) {
+      for (Index i = nd.begin; i < nd.end; ++i) r = std::max(r, point_reach_[i]);
+    } else {
+      r = std::max(node_reach_[nd.left], node_reach_[nd.right]);
+    }
+    node_reach_[k] = r;
   }
 }
 
@@ -270,6 +324,45 @@ NearestVertex VertexTree::nearest_local(const Vec3& query, SearchCursor& cursor)
   if (pos == kNoIndex) return {kNoIndex, kInf};
   cursor.leaf = leaf_of_[pos];
   return {order_[pos], best};
+}
+
+double VertexTree::clearance(const Vec3& query, double cap) const {
+  if (node_reach_.empty() || nodes_.empty() || !query.allFinite() || !(cap > 0)) return 0.0;
+  const double q[3] = {query.x(), query.y(), query.z()};
+  // Depth-first branch and bound on (box distance - largest reach inside),
+  // nearer child first; `best` only falls, from the cap. The box distance
+  // is rounded down a little so that it never exceeds a vertex's own.
+  auto bound = [&](Index k) { return std::sqrt(box_dist2(nodes_[k], q)) * (1 - 1e-12) - node_reach_[k]; };
+  struct Entry {
+    Index node;
+    double bound;
+  };
+  std::array<Entry, kMaxDepth + 2> stack;
+  int top = 0;
+  double best = cap;
+  stack[top++] = {0, bound(0)};
+  while (top > 0) {
+    const Entry e = stack[--top];
+    if (e.bound >= best) continue;
+    const Node* n = &nodes_[e.node];
+    while (n->left != kNoIndex) {
+      const double bl = bound(n->left), br = bound(n->right);
+      const bool right_first = br < bl;
+      const Index near = right_first ? n->right : n->left;
+      const Index far = right_first ? n->left : n->right;
+      const double bn = right_first ? br : bl, bf = right_first ? bl : br;
+      stack[top] = {far, bf};
+      top += bf < best;
+      if (bn >= best) {
+        n = nullptr;
+        break;
+      }
+      n = &nodes_[near];
+    }
+    if (n == nullptr) continue;
+    for (Index i = n->begin; i < n->end; ++i) best = std::min(best, std::sqrt(dist2(q, points_[i])) - point_reach_[i]);
+  }
+  return std::max(best, 0.0);
 }
 
 bool VertexTree::check_invariants() const {

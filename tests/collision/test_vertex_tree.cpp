@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -259,6 +260,108 @@ TEST(VertexTree, EverySharedOrganMatchesBruteForce) {
     ++loaded;
   }
   EXPECT_GE(loaded, 5);
+}
+
+// ---------------------------------------------------------------------------
+// triangle_reach: the farthest a point of a triangle lies from its nearest
+// corner. Closed forms, then dense sampling. clearance: against brute force.
+
+TEST(TriangleReach, ClosedForms) {
+  constexpr double kTol = 1e-12;
+  // Equilateral, side 2: the circumradius 2 / sqrt(3).
+  EXPECT_NEAR(triangle_reach(Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(1, std::sqrt(3.0), 0)), 2 / std::sqrt(3.0), kTol);
+  // Right, legs 3 and 4: half the hypotenuse (the circumcentre is its midpoint).
+  EXPECT_NEAR(triangle_reach(Vec3(0, 0, 0), Vec3(3, 0, 0), Vec3(0, 4, 0)), 2.5, kTol);
+  // Obtuse at (1, 0.5): the circumcentre (2, -2.75) lies outside. The
+  // perpendicular bisector of the edge from (1, 0.5) to (4, 0) meets the
+  // long edge 37/24 from (4, 0), and as far from (1, 0.5); the other
+  // bisector meets it 5/8 from (0, 0).
+  for (int turn = 0; turn < 3; ++turn) {  // each corner order
+    Vec3 c[3] = {Vec3(0, 0, 0), Vec3(4, 0, 0), Vec3(1, 0.5, 0)};
+    std::rotate(c, c + turn, c + 3);
+    EXPECT_NEAR(triangle_reach(c[0], c[1], c[2]), 37.0 / 24, kTol) << "turn " << turn;
+  }
+  // Degenerate: three points on a line, half the longer piece; two corners
+  // at one point, half the edge; all three at one point, 0.
+  EXPECT_NEAR(triangle_reach(Vec3(0, 0, 0), Vec3(6, 0, 0), Vec3(2, 0, 0)), 2.0, kTol);
+  EXPECT_NEAR(triangle_reach(Vec3(0, 0, 0), Vec3(6, 0, 0), Vec3(0, 0, 0)), 3.0, kTol);
+  EXPECT_EQ(triangle_reach(Vec3(1, 1, 1), Vec3(1, 1, 1), Vec3(1, 1, 1)), 0.0);
+  EXPECT_TRUE(std::isnan(triangle_reach(Vec3(0, 0, 0), Vec3(std::nan(""), 0, 0), Vec3(0, 1, 0))));
+}
+
+TEST(TriangleReach, NoSampledPointLiesFartherAndTheFarthestComesClose) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  constexpr int n = 80;  // grid steps a side
+  for (int k = 0; k < 300; ++k) {
+    // Random triangles, a third of them slivers.
+    Vec3 c[3] = {Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng)), Vec3(u(rng), u(rng), u(rng))};
+    if (k % 3 == 0) c[2] = 0.5 * (c[0] + c[1]) + 0.02 * Vec3(u(rng), u(rng), u(rng));
+    const double reach = triangle_reach(c[0], c[1], c[2]);
+    double far = 0;
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; i + j <= n; ++j) {
+        const double a = double(i) / n, b = double(j) / n;
+        const Vec3 x = (1 - a - b) * c[0] + a * c[1] + b * c[2];
+        far = std::max(far, std::min({(x - c[0]).norm(), (x - c[1]).norm(), (x - c[2]).norm()}));
+      }
+    EXPECT_LE(far, reach * (1 + 1e-12)) << "triangle " << k;
+    EXPECT_GE(far, 0.97 * reach) << "triangle " << k;
+  }
+}
+
+// min(cap, least over the vertices of distance less reach), each vertex's
+// reach the largest of its triangles'.
+double brute_clearance(const mesh::SurfaceMesh& m, const Vec3& q, double cap) {
+  std::vector<double> reach(m.vertex_count(), 0.0);
+  for (const auto& t : m.triangles) {
+    const double r = triangle_reach(m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]);
+    for (Index v : t) reach[v] = std::max(reach[v], r);
+  }
+  double best = cap;
+  for (std::size_t v = 0; v < m.vertex_count(); ++v) best = std::min(best, (q - m.positions[v]).norm() - reach[v]);
+  return std::max(best, 0.0);
+}
+
+TEST(VertexTree, ClearanceIsTheBruteForceBoundCapped) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-0.12, 0.12);
+  for (const mesh::SurfaceMesh& m : {mesh::make_sphere(3000, 0.05), mesh::make_organ(3000)}) {
+    const VertexTree tree(m);
+    for (int i = 0; i < 300; ++i) {
+      const Vec3 q(u(rng), u(rng), u(rng));
+      for (double cap : {0.002, 0.01, 1.0}) {
+        const double want = brute_clearance(m, q, cap);
+        const double got = tree.clearance(q, cap);
+        // The reaches are kept as floats rounded up (within 6e-8 of
+        // themselves, up to 15 mm here): a little lower, never higher.
+        EXPECT_LE(got, want + 1e-15) << "query " << q.transpose() << ", cap " << cap;
+        EXPECT_GE(got, want - 1e-8) << "query " << q.transpose() << ", cap " << cap << ", short by " << want - got;
+      }
+    }
+  }
+}
+
+TEST(VertexTree, ClearanceBoundsNothingWithoutASurface) {
+  const auto m = mesh::make_sphere(500, 0.05);
+  const Vec3 far(1, 0, 0);
+  EXPECT_GT(VertexTree(m).clearance(far, 1.0), 0.9);
+  // Positions alone, a non-finite query, a cap of 0, a non-finite position.
+  EXPECT_EQ(VertexTree(std::span<const Vec3>(m.positions)).clearance(far, 1.0), 0.0);
+  EXPECT_EQ(VertexTree(m).clearance(Vec3(std::nan(""), 0, 0), 1.0), 0.0);
+  EXPECT_EQ(VertexTree(m).clearance(far, 0.0), 0.0);
+  auto bad = m;
+  bad.positions[7].y() = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(VertexTree(bad).clearance(far, 1.0), 0.0);
+  // A triangle naming a vertex that does not exist: no bound either.
+  auto broken = m;
+  broken.triangles[0][1] = static_cast<Index>(m.vertex_count());
+  EXPECT_EQ(VertexTree(broken).clearance(far, 1.0), 0.0);
+  // A vertex used by no triangle counts with reach 0: it bounds the query
+  // next to it.
+  auto stray = m;
+  stray.positions.push_back(Vec3(0.2, 0, 0));
+  EXPECT_NEAR(VertexTree(stray).clearance(Vec3(0.201, 0, 0), 1.0), 0.001, 1e-12);
 }
 
 }  // namespace
