@@ -463,7 +463,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
   const double t_mesh = elapsed_ns(t0, Clock::now()) * 1e-9;
   const std::size_t V = m->vertex_count();
   t0 = Clock::now();
-  const auto tree_ptr = std::make_shared<const collision::VertexTree>(std::span<const Vec3>(m->positions));
+  const auto tree_ptr = std::make_shared<const collision::VertexTree>(*m);
   const collision::VertexTree& tree = *tree_ptr;
   const double t_tree = elapsed_ns(t0, Clock::now()) * 1e-9;
   t0 = Clock::now();

@@ -335,7 +335,7 @@ int main(int argc, char** argv) {
                 "frame ms", "gpu ms", "upload ms", "bytes/frame", "index B/fr", "changed V", "calls/fr", "step ms");
     for (std::size_t target : sizes) {
       auto mesh = std::make_shared<const palpa::mesh::SurfaceMesh>(palpa::mesh::make_sphere(target, kRadius));
-      palpa::collision::VertexTree tree(mesh->positions);
+      const palpa::collision::VertexTree tree(*mesh);
       for (int contacts : {1, 3}) {
         std::vector<CaseResult> rs = run_config(scene, mesh, tree, contacts, o);
         for (CaseResult& r : rs) {

@@ -625,6 +625,17 @@ ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   cursor.triangle = ans.surface.triangle;
   cursor.barycentric = ans.surface.barycentric;
   cursor.probe = probe;
+  // Above the surface: how far the probe may move before it can reach it
+  // (the tree's bound, less 1 nm for round-off).
+  if (ans.surface.triangle != kNoIndex && ans.surface.offset > 0) {
+    const double clearance = tree.clearance(probe, kMaxClearance) - kProxyTolerance;
+    if (clearance > 0) {
+      cursor.clear_from = probe;
+      cursor.clearance = clearance;
+      cursor.clear_surface = ans.surface;
+      cursor.clear_vertex = nv.vertex;
+    }
+  }
   return ans;
 }
 
@@ -735,7 +746,19 @@ SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, 
 ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact) {
   if (!probe.allFinite()) return ContactAnswer{};
-  if (!in_contact || cursor.triangle >= mesh.triangle_count()) return query_contact(mesh, tree, probe, cursor, false);
+  if (!in_contact || cursor.triangle >= mesh.triangle_count()) {
+    // Still inside the ball around the last answer above the surface: still
+    // above it, no search.
+    if (!in_contact && cursor.clearance > 0 && (probe - cursor.clear_from).squaredNorm() < cursor.clearance * cursor.clearance) {
+      ContactAnswer clear;
+      clear.surface = cursor.clear_surface;
+      clear.surface.offset = (probe - clear.surface.point).dot(clear.surface.normal);
+      clear.nearest_vertex = cursor.clear_vertex;
+      clear.path = ContactPath::Clear;
+      return clear;
+    }
+    return query_contact(mesh, tree, probe, cursor, false);
+  }
   // The proxy before this query, and how far a walk's answer may be from it:
   // within half the focal distance the foot of the interpolated normal moves
   // at most twice as far as the probe, so an answer farther away is another

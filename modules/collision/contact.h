@@ -134,6 +134,18 @@ struct ContactCursor {
   /// The triangle across the edge of `triangle` nearest to the last answer
   /// (where a sliding probe goes next); its data is fetched ahead of time.
   Index ahead = kNoIndex;
+  /// The last tree answer that found the probe above the undeformed surface
+  /// (offset > 0): where the probe was (m), its surface point and nearest
+  /// vertex, and its clearance (m), a lower bound on the probe's distance
+  /// from the undeformed surface there (VertexTree::clearance, at most
+  /// kMaxClearance; 0: no such answer, a probe too close, or a tree that
+  /// knows no surface). The ball of that radius holds no point of the
+  /// surface, so a probe inside it is on the same side, above, and cannot
+  /// have come into contact (track_contact's path Clear).
+  Vec3 clear_from = Vec3::Zero();
+  double clearance = 0;
+  SurfacePoint clear_surface;
+  Index clear_vertex = kNoIndex;
 };
 
 /// Which way query_contact found its answer.
@@ -145,13 +157,19 @@ enum class ContactPath : unsigned char {
   /// distance, or it jumped): the proxy slid along the surface with the
   /// probe's motion (track_contact).
   Proxy = 3,
+  /// Out of contact and inside the clearance of the last tree answer that
+  /// found the probe above the surface (ContactCursor::clearance): nothing
+  /// was searched. The surface point and nearest vertex are that answer's,
+  /// with the offset measured again from its point along its normal.
+  Clear = 4,
 };
 
 /// What query_contact found.
 struct ContactAnswer {
   SurfacePoint surface;
   /// The nearest vertex (exact, from the tree) on the Tree path; on the Walk
-  /// path the vertex of the contact triangle nearest to the probe.
+  /// path the vertex of the contact triangle nearest to the probe; on the
+  /// Clear path the last tree answer's.
   Index nearest_vertex = kNoIndex;
   ContactPath path = ContactPath::None;
 };
@@ -165,6 +183,11 @@ struct ContactAnswer {
 /// allocation.
 ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact);
+
+/// Largest clearance (m) a tree answer above the surface asks of the tree
+/// (ContactCursor::clearance): the bound's search stops there, and a probe
+/// farther away is asked again after moving this far.
+inline constexpr double kMaxClearance = 0.01;
 
 /// Distance (m) a walk's answer in track_contact may lie from the proxy on
 /// top of twice the probe's motion (round-off of a probe at rest).
@@ -204,7 +227,16 @@ inline constexpr double kProxyCone = 0.25;
 inline constexpr double kProxyChase = 2.0;
 
 /// The contact query with a god-object proxy, for the haptic tick. When not
-/// `in_contact` (or without a last triangle) it is query_contact. In contact
+/// `in_contact` (or without a last triangle) it is query_contact, except
+/// that a probe which has moved less than the cursor's clearance from where
+/// the last tree answer found it above the surface gets that answer again
+/// without a search (path Clear; offset measured again from its point): it
+/// is still above the undeformed surface, and a new contact needs it below
+/// (height_check). A hovering probe costs a few loads then, not a tree
+/// search; the contact verdicts, and so the forces, are the same as
+/// without it wherever the mesh's normals point out of the side the probe
+/// is on (a probe that comes within the clearance of the surface is asked
+/// of the tree again before it can touch). In contact
 /// the proxy (the last answer: cursor.triangle, cursor.barycentric) never
 /// leaves the surface and the tree is never asked, so the contact cannot jump
 /// through the volume to another sheet or fold:

@@ -135,7 +135,7 @@ HapticLoop::HapticLoop(std::shared_ptr<const mesh::SurfaceMesh> mesh, deform::Ma
   mesh_ = std::move(mesh);
   options_ = options;
   if (mesh_->vertex_count() == 0) throw std::invalid_argument("loop configuration: the surface has no vertices");
-  tree_ = std::make_shared<collision::VertexTree>(std::span<const Vec3>(mesh_->positions));
+  tree_ = std::make_shared<collision::VertexTree>(*mesh_);
   init(std::move(materials), std::move(probes));
 }
 

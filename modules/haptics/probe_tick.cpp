@@ -59,6 +59,12 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
   out.path = ca.path;
   out.surface = ca.surface;
   if (out.surface.triangle == kNoIndex) return;
+  // Provably above the surface (collision::track_contact): out of contact,
+  // the surface's heights not read (surface_height stays 0).
+  if (ca.path == collision::ContactPath::Clear) {
+    out.height.depth = -out.surface.offset;
+    return;
+  }
   const mesh::Triangle& tri = mesh.triangles[out.surface.triangle];
   if (states.size() != mesh.vertex_count()) return;
   const Vec3& b = out.surface.barycentric;

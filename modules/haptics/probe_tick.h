@@ -30,9 +30,11 @@ struct ProbeOutput {
   double normal_reaction = 0;         ///< Fn of eq. (4) before clamping, N
   bool in_contact = false;
   collision::SurfacePoint surface;    ///< virtual vertex under the probe
-  collision::HeightCheck height;      ///< height check result
+  /// Height check result; on the Clear path only depth (-offset) is set.
+  collision::HeightCheck height;
   /// Nearest vertex: exact when path == Tree; on the Walk path the contact
-  /// triangle's vertex nearest to the probe (see collision::ContactAnswer).
+  /// triangle's vertex nearest to the probe; on the Clear path (a hovering
+  /// probe, no search) the last tree answer's (see collision::ContactAnswer).
   Index nearest_vertex = kNoIndex;
   collision::ContactPath path = collision::ContactPath::None;  ///< how the contact query answered
   deform::Contact contact;            ///< the contact to feed the surface (valid when in_contact)

@@ -14,7 +14,7 @@ std::shared_ptr<const SessionModel> SessionModel::make(std::shared_ptr<const mes
   if (mesh->vertex_count() == 0) throw std::invalid_argument("session: the surface has no vertices");
   config.validate();
   auto m = std::make_shared<SessionModel>();
-  m->tree = std::make_shared<collision::VertexTree>(std::span<const Vec3>(mesh->positions));
+  m->tree = std::make_shared<collision::VertexTree>(*mesh);
   m->mesh = std::move(mesh);
   m->options = options;
   m->config = config;

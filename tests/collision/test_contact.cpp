@@ -8,8 +8,9 @@
 
 #include <Eigen/Geometry>
 
-#include <cmath>
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -797,6 +798,151 @@ TEST(ContactWalk, QueryContactWalksOnlyInContactAndWithoutJumps) {
   EXPECT_EQ(a.path, ContactPath::None);
   EXPECT_EQ(a.surface.triangle, kNoIndex);
   EXPECT_EQ(cursor.triangle, before.triangle);
+}
+
+// ---------------------------------------------------------------------------
+// The clearance of a tree answer above the surface (track_contact's path
+// Clear) against the distance to the surface by brute force.
+
+// Distance (m) from q to the triangle abc: to its plane when the foot lies
+// inside, else to the nearest of its edges.
+double distance_to_triangle(const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  auto to_segment = [&](const Vec3& p0, const Vec3& p1) {
+    const Vec3 e = p1 - p0;
+    const double l2 = e.squaredNorm();
+    const double t = l2 > 0 ? std::clamp((q - p0).dot(e) / l2, 0.0, 1.0) : 0.0;
+    return (q - (p0 + t * e)).norm();
+  };
+  const Vec3 n = (b - a).cross(c - a);
+  const double n2 = n.squaredNorm();
+  if (n2 > 0) {
+    const Vec3 foot = q - ((q - a).dot(n) / n2) * n;
+    // Inside when the foot is on the inner side of all three edges.
+    const bool inside = (b - a).cross(foot - a).dot(n) >= 0 && (c - b).cross(foot - b).dot(n) >= 0 &&
+                        (a - c).cross(foot - c).dot(n) >= 0;
+    if (inside) return (q - foot).norm();
+  }
+  return std::min({to_segment(a, b), to_segment(b, c), to_segment(c, a)});
+}
+
+double distance_to_surface(const mesh::SurfaceMesh& m, const Vec3& q) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& t : m.triangles)
+    best = std::min(best, distance_to_triangle(q, m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]));
+  return best;
+}
+
+// `count` probes 0 to 6 mm above random points of the surface (along the
+// interpolated normal), each asked of track_contact afresh: where the tree's
+// answer leaves a clearance, no point of the surface lies nearer. Returns
+// how many answers left one.
+int check_clearance(const mesh::SurfaceMesh& m, std::mt19937& rng, int count, const std::string& what) {
+  const VertexTree tree(m);
+  double reach = 0;  // the largest triangle's
+  for (const auto& t : m.triangles)
+    reach = std::max(reach, triangle_reach(m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]));
+  std::uniform_int_distribution<Index> pick(0, static_cast<Index>(m.triangle_count() - 1));
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int cleared = 0;
+  for (int i = 0; i < count; ++i) {
+    const auto& tri = m.triangles[pick(rng)];
+    const double u = unit(rng), v = unit(rng) * (1 - u);
+    const Vec3 b(1 - u - v, u, v);
+    Vec3 point = Vec3::Zero(), normal = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) {
+      point += b[k] * m.positions[tri[k]];
+      normal += b[k] * m.normals[tri[k]];
+    }
+    const Vec3 probe = point + 0.006 * unit(rng) * normal.normalized();
+    ContactCursor cursor;
+    const ContactAnswer a = track_contact(m, tree, probe, cursor, false);
+    EXPECT_EQ(a.path, ContactPath::Tree) << what;
+    if (cursor.clearance <= 0) continue;
+    ++cleared;
+    EXPECT_GT(a.surface.offset, 0.0) << what;  // only above the surface
+    EXPECT_EQ(cursor.clear_from, probe) << what;
+    const double d = distance_to_surface(m, probe);
+    EXPECT_LE(cursor.clearance, d) << what << ": probe " << probe.transpose() << " is " << d
+                                   << " m from the surface, its clearance " << cursor.clearance << " m";
+    // And not far below it: every vertex is at least d away, and no reach is
+    // larger than the largest triangle's.
+    EXPECT_GE(cursor.clearance, std::min(d, kMaxClearance) - reach - 1e-9) << what;
+  }
+  return cleared;
+}
+
+TEST(TrackContact, TheClearanceAboveTheSurfaceIsNoMoreThanTheDistanceToItOnMeshesOfOurOwn) {
+  std::mt19937 rng(5);
+  EXPECT_GT(check_clearance(mesh::make_sphere(5000, 0.05), rng, 300, "sphere"), 150);
+  EXPECT_GT(check_clearance(mesh::make_organ(5000), rng, 300, "organ"), 150);
+  // A bumpy grid with tilted normals, open at its borders.
+  EXPECT_GT(check_clearance(tilted_grid(rng, 0.6), rng, 300, "tilted grid"), 50);
+}
+
+TEST(TrackContact, TheClearanceAboveTheSurfaceIsNoMoreThanTheDistanceToItOnOrgans) {
+  PALPA_REQUIRE_SHARED_ORGANS();
+  for (const SharedOrgan& o : kSharedOrgans) {
+    std::mt19937 rng(6);
+    const auto m = load_shared_organ(o);
+    const int cleared = check_clearance(m, rng, 100, o.file);
+    std::printf("%s: %d of 100 probes up to 6 mm above with a clearance\n", o.file, cleared);
+    // Their triangles' reaches are 1 to 8 mm: about half the probes lie beyond.
+    EXPECT_GT(cleared, 30) << o.file;
+  }
+}
+
+TEST(TrackContact, OutOfContactInsideTheClearanceTheLastAnswerHoldsWithoutASearch) {
+  const double radius = 0.05;
+  const auto m = mesh::make_sphere(20000, radius);
+  const VertexTree tree(m);
+  double reach = 0;  // the largest triangle's
+  for (const auto& t : m.triangles)
+    reach = std::max(reach, triangle_reach(m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]));
+  const Vec3 dir = Vec3(1, 2, 3).normalized();
+  ContactCursor cursor;
+  const Vec3 above = dir * (radius + 0.004);
+  const ContactAnswer first = track_contact(m, tree, above, cursor, false);
+  ASSERT_EQ(first.path, ContactPath::Tree);
+  const double clearance = cursor.clearance;
+  // 4 mm above less the reach (and the sagitta, under 0.1 mm here).
+  ASSERT_GT(clearance, 0.004 - reach - 1e-4);
+  ASSERT_LT(clearance, 0.004);
+  // A move just inside the ball: the same answer, offset measured again.
+  const Vec3 side = dir.cross(Vec3::UnitZ()).normalized();
+  const Vec3 inside = above + 0.999 * clearance * side;
+  ContactAnswer a = track_contact(m, tree, inside, cursor, false);
+  EXPECT_EQ(a.path, ContactPath::Clear);
+  EXPECT_EQ(a.nearest_vertex, first.nearest_vertex);
+  EXPECT_EQ(a.surface.triangle, first.surface.triangle);
+  EXPECT_EQ(a.surface.point, first.surface.point);
+  EXPECT_DOUBLE_EQ(a.surface.offset, (inside - first.surface.point).dot(first.surface.normal));
+  EXPECT_EQ(cursor.clear_from, above);  // the ball does not move with it
+  // Straight down by as much: also inside, and still above the surface.
+  a = track_contact(m, tree, above - 0.999 * clearance * dir, cursor, false);
+  EXPECT_EQ(a.path, ContactPath::Clear);
+  EXPECT_GT(a.surface.offset, 0.0);
+  // Just outside the ball: the tree again, exact, and a new ball there.
+  const Vec3 outside = above + 1.001 * clearance * side;
+  a = track_contact(m, tree, outside, cursor, false);
+  EXPECT_EQ(a.path, ContactPath::Tree);
+  EXPECT_EQ(a.nearest_vertex, nearest_brute_force(m.positions, outside).vertex);
+  EXPECT_EQ(cursor.clear_from, outside);
+  // In contact the clearance is not used (the contact is tracked).
+  a = track_contact(m, tree, outside, cursor, true);
+  EXPECT_NE(a.path, ContactPath::Clear);
+  // query_contact, the exact query, never skips.
+  EXPECT_EQ(query_contact(m, tree, outside, cursor, false).path, ContactPath::Tree);
+  // Below the surface no clearance is left: a probe 1 mm in, then 0.01 mm on.
+  ContactCursor below;
+  track_contact(m, tree, dir * (radius - 0.001), below, false);
+  EXPECT_EQ(below.clearance, 0.0);
+  EXPECT_EQ(track_contact(m, tree, dir * (radius - 0.00101), below, false).path, ContactPath::Tree);
+  // A tree built from the positions alone knows no surface: none.
+  const VertexTree positions_only(m.positions);
+  ContactCursor never;
+  track_contact(m, positions_only, above, never, false);
+  EXPECT_EQ(never.clearance, 0.0);
+  EXPECT_EQ(track_contact(m, positions_only, above, never, false).path, ContactPath::Tree);
 }
 
 TEST(Contact, BadInputGivesNoTriangle) {

@@ -6,6 +6,9 @@
 #include "common/test_support.h"
 #include "mesh/generate.h"
 
+#include <Eigen/Geometry>
+
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
@@ -317,6 +320,126 @@ TEST(HapticTick, ContactHoldsWhileAnUnderdampedSurfaceOvershoots) {
   haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&memory, 1), std::span(&again, 1),
               ForceParams{}, shape);
   EXPECT_EQ(again.in_contact, -again.height.depth <= again.height.surface_height);
+}
+
+// ---------------------------------------------------------------------------
+// A hovering probe skips the search (collision::ContactPath::Clear): the same
+// ticks on two copies of a scene, one whose tree is built from the positions
+// alone and so knows no clearance: there every probe out of contact asks
+// the tree.
+
+struct TwinScene {
+  std::shared_ptr<mesh::SurfaceMesh> mesh;
+  std::unique_ptr<deform::DeformableSurface> surface;
+  std::unique_ptr<collision::VertexTree> tree;
+  std::vector<ProbeMemory> memory;
+
+  TwinScene(const mesh::SurfaceMesh& m, const deform::Material& material, std::size_t probes, bool clearance)
+      : mesh(std::make_shared<mesh::SurfaceMesh>(m)), memory(probes) {
+    surface = std::make_unique<deform::DeformableSurface>(
+        mesh, deform::MaterialArrays::uniform(mesh->vertex_count(), material));
+    tree = clearance ? std::make_unique<collision::VertexTree>(*mesh)
+                     : std::make_unique<collision::VertexTree>(std::span<const Vec3>(mesh->positions));
+  }
+
+  void tick(std::span<const ProbeInput> in, std::span<ProbeOutput> out, const deform::ShapeFunction& shape) {
+    haptic_tick(*surface, *tree, in, memory, out, ForceParams{}, shape);
+    std::vector<deform::Contact> contacts;
+    for (const ProbeOutput& o : out)
+      if (o.in_contact) contacts.push_back(o.contact);
+    surface->set_contacts(contacts);
+    surface->step(1e-3);
+  }
+};
+
+// Three probes circling the surface of a star-shaped body (the ray from
+// `centre` along a turning direction, `radius_along` giving where it meets
+// the surface) at 0.06 to 0.16 mm a tick, each rising to 5 mm above it and
+// pressing 3 mm into it along the ray, at its own period; probe 0 jumps a
+// quarter turn at tick 3000. Checks, tick by tick, that the forces, verdicts
+// and surface states are the bits of the scene that always searches, and
+// the answers too where this one searched; sets `share` to the share of the
+// out of contact probe-ticks that skipped the search.
+template <class RadiusAlong>
+void compare_hovering(const mesh::SurfaceMesh& m, const Vec3& centre, RadiusAlong radius_along, const char* what,
+                      double& share) {
+  share = 0;
+  const deform::Material material = linear(300, 0.3);
+  deform::ShapeFunction shape;
+  shape.kind = deform::ShapeKind::Wendland;
+  shape.radius = 0.012;
+  constexpr int kProbes = 3, kTicks = 6000;
+  TwinScene fast(m, material, kProbes, true), full(m, material, kProbes, false);
+  std::array<ProbeInput, kProbes> in{};
+  std::array<ProbeOutput, kProbes> a{}, b{};
+  std::array<Vec3, kProbes> last{};
+  const Vec3 axes[kProbes][2] = {{Vec3(1, 0, 0), Vec3(0, 0.6, 0.8)},
+                                 {Vec3(0, 1, 0), Vec3(0.8, 0, -0.6)},
+                                 {Vec3(0.6, 0, 0.8), Vec3(0, -1, 0)}};
+  long skipped = 0, out_of_contact = 0, contact_ticks = 0;
+  for (int t = 0; t < kTicks; ++t) {
+    for (int p = 0; p < kProbes; ++p) {
+      const double turn = (0.0012 + 0.0007 * p) * t + (p == 0 && t >= 3000 ? M_PI / 2 : 0.0);
+      const Vec3 d = (std::cos(turn) * axes[p][0] + std::sin(turn) * axes[p][1] +
+                      0.2 * std::sin(3.1 * turn) * axes[p][0].cross(axes[p][1]))
+                         .normalized();
+      const double height = 0.001 + 0.004 * std::sin(2 * M_PI * t / (900.0 + 250 * p));
+      const Vec3 pos = centre + (radius_along(d) + height) * d;
+      in[p] = {pos, t == 0 ? Vec3::Zero() : Vec3((pos - last[p]) / 1e-3)};
+      last[p] = pos;
+    }
+    fast.tick(in, a, shape);
+    full.tick(in, b, shape);
+    for (int p = 0; p < kProbes; ++p) {
+      const ProbeOutput &x = a[p], &y = b[p];
+      ASSERT_EQ(x.in_contact, y.in_contact) << what << ", tick " << t << ", probe " << p;
+      ASSERT_EQ(x.force, y.force) << what << ", tick " << t << ", probe " << p;
+      ASSERT_EQ(x.normal_reaction, y.normal_reaction) << what << ", tick " << t;
+      contact_ticks += y.in_contact;
+      out_of_contact += !y.in_contact;
+      if (x.path == collision::ContactPath::Clear) {
+        ++skipped;
+        // The probe is above the surface, as the full query says.
+        ASSERT_EQ(y.path, collision::ContactPath::Tree) << what << ", tick " << t;
+        ASSERT_GT(y.surface.offset, 0.0) << what << ", tick " << t;
+        EXPECT_EQ(x.height.depth, -x.surface.offset);
+        EXPECT_EQ(x.height.surface_height, 0.0);
+        continue;
+      }
+      ASSERT_EQ(x.path, y.path) << what << ", tick " << t << ", probe " << p;
+      ASSERT_EQ(x.nearest_vertex, y.nearest_vertex) << what << ", tick " << t;
+      ASSERT_EQ(x.surface.triangle, y.surface.triangle) << what << ", tick " << t;
+      ASSERT_EQ(x.surface.point, y.surface.point) << what << ", tick " << t;
+      ASSERT_EQ(x.height.depth, y.height.depth) << what << ", tick " << t;
+    }
+  }
+  for (std::size_t i = 0; i < m.vertex_count(); ++i)
+    ASSERT_EQ(fast.surface->state().vertices[i].h, full.surface->state().vertices[i].h) << what << ", vertex " << i;
+  std::printf("%s: %ld probe-ticks in contact, %ld out of it, %ld of those skipped the search\n", what,
+              contact_ticks, out_of_contact, skipped);
+  EXPECT_GT(contact_ticks, kProbes * kTicks / 5) << what;
+  share = out_of_contact > 0 ? double(skipped) / double(out_of_contact) : 0.0;
+}
+
+TEST(HapticTick, AHoveringProbeSkipsTheSearchWithTheForcesOfTheFullQuery) {
+  // A sphere with radial normals, and the default organ (concave in places:
+  // its groove, notch and hollow back border) with its own normals.
+  const SphereScene sphere(linear(300));
+  double share = 0;
+  compare_hovering(*sphere.mesh, Vec3::Zero(), [](const Vec3&) { return kRadius; }, "sphere", share);
+  EXPECT_GT(share, 0.5);
+  const auto organ = mesh::make_organ(20000);
+  // Where the ray meets the organ's implicit surface, by bisection.
+  auto organ_radius = [](const Vec3& d) {
+    double lo = 0, hi = 0.3;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (mesh::organ_implicit(mesh::organ_center() + mid * d) < 0 ? lo : hi) = mid;
+    }
+    return lo;
+  };
+  compare_hovering(organ, mesh::organ_center(), organ_radius, "organ", share);
+  EXPECT_GT(share, 0.5);
 }
 
 TEST(HapticTick, TheRingOfTheNearestCornerIsFetchedOneStageATick) {
