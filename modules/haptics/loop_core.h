@@ -319,9 +319,17 @@ class LoopCore {
   /// otherwise pay for those misses; and for the haptic thread during its
   /// spin and just before the tick (LoopConfig::warm_before_tick), after a
   /// sleep and after the deformation thread wrote a new replica on another
-  /// CPU. Costs about one
+  /// CPU. A probe the last tick found hovering clear of the surface
+  /// (collision::ContactPath::Clear, no search) is asked of the tree here,
+  /// so that the tree's path is in the cache on the tick the probe leaves
+  /// its clearance. Costs about one
   /// tick (microseconds); no allocation, no lock.
   void warm_caches(const deform::DeformableSurface& surface) noexcept;
+  /// What the last warm_caches found for each probe of the last tick, in
+  /// the order of its dense probes (for tests).
+  std::span<const ProbeOutput> last_warm() const noexcept {
+    return std::span<const ProbeOutput>(warm_outputs_.data(), last_dense_);
+  }
 
   /// One tick at time t (s) against `surface` (the model generation in use,
   /// published at model_time, s). `inputs` and `results` hold probe_count()

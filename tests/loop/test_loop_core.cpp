@@ -7,8 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 #include <memory>
@@ -27,7 +29,7 @@ class LoopCoreTest : public ::testing::Test {
     m.stiffness = kStiffness;
     m.damping = 1.0;
     surface_ = std::make_unique<deform::DeformableSurface>(mesh_, deform::MaterialArrays::uniform(mesh_->vertex_count(), m));
-    tree_ = std::make_unique<collision::VertexTree>(std::span<const Vec3>(mesh_->positions));
+    tree_ = std::make_unique<collision::VertexTree>(*mesh_);
     config_.rate_hz = 1000;
     config_.deform_rate_hz = 0;
   }
@@ -250,13 +252,15 @@ TEST_F(LoopCoreTest, ConfigurationErrorsNameTheField) {
 // tick's data and must change nothing: a core warmed after every
 // deformation step gives the same bits as one never warmed, and its probe
 // memories are the same before and after each warm. Two probes slide across
-// the deforming plane, in and out of contact, across many triangles.
+// the deforming plane, in and out of contact, across many triangles. Where a
+// probe hovered clear of the surface (no search), the warm asks the tree.
 TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
   auto cold = make({setup(), setup()});
   auto warm = make({setup(), setup()});
   std::vector<deform::Contact> contacts;
   ContactSet warm_contacts;
-  std::size_t in_contact = 0, out_of_contact = 0, warmed = 0;
+  std::size_t in_contact = 0, out_of_contact = 0, warmed = 0, clear = 0, clear_warmed = 0;
+  std::array<std::uint8_t, 2> last_path{};
   for (std::uint64_t i = 1; i <= 1200; ++i) {
     const double t = 1.0 + static_cast<double>(i) * kPeriod;
     std::array<ProbeTickInput, 2> in{};
@@ -289,6 +293,8 @@ TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
       EXPECT_EQ(a[p].path, b[p].path);
       EXPECT_EQ(a[p].flags, b[p].flags);
       (a[p].in_contact ? in_contact : out_of_contact) += 1;
+      clear += b[p].path == static_cast<std::uint8_t>(collision::ContactPath::Clear);
+      last_path[p] = b[p].path;
     }
     if (i % 2 != 0) continue;
     // A deformation step from the cold core's contacts, then the warm.
@@ -300,6 +306,12 @@ TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
     ++warmed;
     const auto& after = warm->state().memory;
     for (int p = 0; p < 2; ++p) {
+      if (last_path[p] == static_cast<std::uint8_t>(collision::ContactPath::Clear)) {
+        ++clear_warmed;
+        EXPECT_EQ(warm->last_warm()[p].path, collision::ContactPath::Tree);
+      }
+      EXPECT_EQ(before[p].cursor.clear_from, after[p].cursor.clear_from);
+      EXPECT_EQ(before[p].cursor.clearance, after[p].cursor.clearance);
       EXPECT_EQ(before[p].in_contact, after[p].in_contact);
       EXPECT_EQ(before[p].corners, after[p].corners);
       EXPECT_EQ(before[p].cursor.triangle, after[p].cursor.triangle);
@@ -313,6 +325,10 @@ TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
   EXPECT_GT(in_contact, 600u);
   EXPECT_GT(out_of_contact, 300u);
   EXPECT_EQ(warmed, 600u);
+  EXPECT_GT(clear, 50u);
+  EXPECT_GT(clear_warmed, 25u);
+  std::printf("%zu probe-ticks in contact, %zu out of it, %zu of those clear; %zu warms after a clear tick\n",
+              in_contact, out_of_contact, clear, clear_warmed);
 }
 
 }  // namespace
