@@ -26,6 +26,7 @@
 #include "palpa_bench_meshes.h"
 #include "palpa_bench_path.h"
 #include "palpa_bench_replica.h"
+#include "palpa_bench_hover.h"
 #include "palpa_bench_tissue.h"
 #include "palpa_bench_util.h"
 
@@ -83,6 +84,7 @@ struct Options {
   double organ_unit_m = 0;  // > 0: every organ file is in this unit (e.g. 1 for palpa-prep's output)
   bool spheres = true;
   bool tissue_map_only = false;
+  bool hover_only = false;  // only the hovering section
   bool threaded = true;  // also the tick with the step on another thread (3 probes)
   bool threaded_both = false;  // ... with both replicas stepped (before issue 8)
   bool threaded_warm = true;   // ... warming during the spin before each tick, as HapticLoop
@@ -97,7 +99,7 @@ struct Options {
 void print_usage() {
   std::printf(
       "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--organ-unit U] [--no-spheres]\n"
-      "                   [--ticks N] [--seed N] [--repeat N] [--tissue-map]\n"
+      "                   [--ticks N] [--seed N] [--repeat N] [--tissue-map] [--hover]\n"
       "  --quick            reduced set (spheres 10k, 100k, 1M; fewer ticks; no brute force above 100k)\n"
       "  --json FILE        also write the records as a JSON array to FILE\n"
       "  --shared-data DIR  folder of shared organ meshes (default %s)\n"
@@ -110,6 +112,8 @@ void print_usage() {
       "                     and keep each query's least time (takes the machine's interruptions out of\n"
       "                     both sides of a comparison; default 1: every query timed once)\n"
       "  --tissue-map       only the 1M-vertex tissue-map section (evaluate, apply, step vs uniform)\n"
+      "  --hover            only the hovering section (1M-vertex organ, palpa-loop-bench's paths, a tree\n"
+      "                     that knows the surface against one built from positions alone)\n"
       "  --threaded-both    the threaded run steps both replicas (as before issue 8) instead of level_with\n"
       "  --no-threaded      skip the paced run with the deformation step on another thread\n"
       "  --no-warm          in that run, spin before each tick without the loop's warm-up\n"
@@ -191,6 +195,8 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       if (!value(o.only)) return std::string("--only needs part of a mesh name");
     } else if (a == "--tissue-map") {
       o.tissue_map_only = true;
+    } else if (a == "--hover") {
+      o.hover_only = true;
     } else if (a == "--seed") {
       if (auto e = number("--seed", o.seed)) return e;
     } else if (a == "--repeat") {
@@ -205,6 +211,7 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       return "unknown option '" + a + "'";
     }
   }
+  if (o.tissue_map_only && o.hover_only) return "--tissue-map and --hover each run only their own section: give one";
   return std::nullopt;
 }
 
@@ -1229,7 +1236,7 @@ int main(int argc, char** argv) {
 
   // The meshes: spheres first, then the shared organs (none with --tissue-map).
   std::vector<MeshCase> cases;
-  if (!opt.tissue_map_only) {
+  if (!opt.tissue_map_only && !opt.hover_only) {
     for (std::size_t n : opt.spheres ? plan.spheres : std::vector<std::size_t>{}) {
       MeshCase c;
       c.name = sphere_name(n);
@@ -1264,11 +1271,20 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (!opt.tissue_map_only) print_tables(results, clock, opt);
-  try {
-    bench::run_tissue_map_bench(1'000'000, opt.quick ? 3 : 5, results.records);
-  } catch (const std::exception& e) {
-    std::printf("[tissue map] skipped: %s\n", e.what());
+  if (!opt.tissue_map_only && !opt.hover_only) print_tables(results, clock, opt);
+  if (!opt.hover_only) {
+    try {
+      bench::run_tissue_map_bench(1'000'000, opt.quick ? 3 : 5, results.records);
+    } catch (const std::exception& e) {
+      std::printf("[tissue map] skipped: %s\n", e.what());
+    }
+  }
+  if (!opt.tissue_map_only) {
+    try {
+      bench::run_hover_bench(1'000'000, opt.quick ? 10000 : 30000, 2, results.records);
+    } catch (const std::exception& e) {
+      std::printf("[hover] skipped: %s\n", e.what());
+    }
   }
   for (auto& rec : results.records) rec["clock_overhead_ns"] = clock.p50_ns;
   std::printf("total run time %.1f s\n", elapsed_ns(start, Clock::now()) * 1e-9);
