@@ -228,48 +228,57 @@ inline bool contains_ball(const NodeT& n, const double q[3], double r2) {
 
 }  // namespace
 
-void VertexTree::search(Index root, const double q[3], double& best, Index& best_pos) const {
-  // Depth-first branch and bound with an explicit stack of (node, box
-  // distance): nearer child first, boxes no nearer than the best are pruned.
+template <class Bound, class Scan>
+void VertexTree::branch_and_bound(Index root, double& best, Bound bound, Scan scan) const {
+  // Depth-first with an explicit stack of (node, bound): nearer child first,
+  // nodes whose bound is no less than the best are pruned.
   struct Entry {
     Index node;
-    double d2;
+    double bound;
   };
   std::array<Entry, kMaxDepth + 2> stack;
   int top = 0;
-  stack[top++] = {root, box_dist2(nodes_[root], q)};
+  stack[top++] = {root, bound(nodes_[root])};
   while (top > 0) {
     const Entry e = stack[--top];
-    if (e.d2 >= best) continue;
+    if (e.bound >= best) continue;
     const Node* n = &nodes_[e.node];
     // Descend to a leaf, pushing the farther child of each inner node when it
-    // may still hold a nearer vertex (selects written to avoid branches).
+    // may still hold a better vertex (selects written to avoid branches).
     while (n->left != kNoIndex) {
-      const double dl = box_dist2(nodes_[n->left], q);
-      const double dr = box_dist2(nodes_[n->right], q);
-      const bool right_first = dr < dl;
+      const double bl = bound(nodes_[n->left]);
+      const double br = bound(nodes_[n->right]);
+      const bool right_first = br < bl;
       const Index near = right_first ? n->right : n->left;
       const Index far = right_first ? n->left : n->right;
-      const double dn = right_first ? dr : dl;
-      const double df = right_first ? dl : dr;
-      stack[top] = {far, df};
-      top += df < best;
-      if (dn >= best) {
+      const double bn = right_first ? br : bl;
+      const double bf = right_first ? bl : br;
+      stack[top] = {far, bf};
+      top += bf < best;
+      if (bn >= best) {
         n = nullptr;
         break;
       }
       n = &nodes_[near];
     }
-    if (n == nullptr) continue;
-    // Scan the leaf's points (contiguous in tree order).
-    for (Index i = n->begin; i < n->end; ++i) {
-      const double d = dist2(q, points_[i]);
-      if (d < best) {
-        best = d;
-        best_pos = i;
-      }
-    }
+    if (n != nullptr) scan(*n);
   }
+}
+
+void VertexTree::search(Index root, const double q[3], double& best, Index& best_pos) const {
+  // Bound: the squared distance to the box. Scan the leaf's points
+  // (contiguous in tree order).
+  branch_and_bound(
+      root, best, [q](const Node& n) { return box_dist2(n, q); },
+      [&](const Node& leaf) {
+        for (Index i = leaf.begin; i < leaf.end; ++i) {
+          const double d = dist2(q, points_[i]);
+          if (d < best) {
+            best = d;
+            best_pos = i;
+          }
+        }
+      });
 }
 
 NearestVertex VertexTree::nearest(const Vec3& query) const {
@@ -329,39 +338,20 @@ NearestVertex VertexTree::nearest_local(const Vec3& query, SearchCursor& cursor)
 double VertexTree::clearance(const Vec3& query, double cap) const {
   if (node_reach_.empty() || nodes_.empty() || !query.allFinite() || !(cap > 0)) return 0.0;
   const double q[3] = {query.x(), query.y(), query.z()};
-  // Depth-first branch and bound on (box distance - largest reach inside),
-  // nearer child first; `best` only falls, from the cap. The box distance
-  // is rounded down a little so that it never exceeds a vertex's own.
-  auto bound = [&](Index k) { return std::sqrt(box_dist2(nodes_[k], q)) * (1 - 1e-12) - node_reach_[k]; };
-  struct Entry {
-    Index node;
-    double bound;
-  };
-  std::array<Entry, kMaxDepth + 2> stack;
-  int top = 0;
+  // Bound: the box's distance, rounded down a little so that it never
+  // exceeds a vertex's own, less the largest reach inside it. `best` only
+  // falls, from the cap.
   double best = cap;
-  stack[top++] = {0, bound(0)};
-  while (top > 0) {
-    const Entry e = stack[--top];
-    if (e.bound >= best) continue;
-    const Node* n = &nodes_[e.node];
-    while (n->left != kNoIndex) {
-      const double bl = bound(n->left), br = bound(n->right);
-      const bool right_first = br < bl;
-      const Index near = right_first ? n->right : n->left;
-      const Index far = right_first ? n->left : n->right;
-      const double bn = right_first ? br : bl, bf = right_first ? bl : br;
-      stack[top] = {far, bf};
-      top += bf < best;
-      if (bn >= best) {
-        n = nullptr;
-        break;
-      }
-      n = &nodes_[near];
-    }
-    if (n == nullptr) continue;
-    for (Index i = n->begin; i < n->end; ++i) best = std::min(best, std::sqrt(dist2(q, points_[i])) - point_reach_[i]);
-  }
+  const Node* const first = nodes_.data();
+  branch_and_bound(
+      0, best,
+      [&](const Node& n) {
+        return std::sqrt(box_dist2(n, q)) * (1 - 1e-12) - node_reach_[static_cast<std::size_t>(&n - first)];
+      },
+      [&](const Node& leaf) {
+        for (Index i = leaf.begin; i < leaf.end; ++i)
+          best = std::min(best, std::sqrt(dist2(q, points_[i])) - point_reach_[i]);
+      });
   return std::max(best, 0.0);
 }
 

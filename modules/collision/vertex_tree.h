@@ -79,6 +79,11 @@ class VertexTree {
   static constexpr int kMaxDepth = 64;
 
   Index build_node(std::span<const Vec3> positions, Index begin, Index end, Index parent, int depth);
+  // Depth-first branch and bound below `root`: bound(node) is a lower bound
+  // on what any vertex below it can give, scan(leaf) lowers `best` over the
+  // leaf's points; nodes whose bound is no less than best are pruned.
+  template <class Bound, class Scan>
+  void branch_and_bound(Index root, double& best, Bound bound, Scan scan) const;
   // Branch and bound below `root` with the running best (squared distance, m^2,
   // and tree position), which it lowers when it finds a nearer vertex.
   void search(Index root, const double q[3], double& best, Index& best_pos) const;
