@@ -510,15 +510,7 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
 // same reads, nothing kept.
 void LoopCore::warm_caches(const deform::DeformableSurface& surface) noexcept {
   const std::size_t dense = last_dense_;
-  // A probe the tick answers without a search (hovering within its
-  // clearance, collision::ContactPath::Clear) is asked of the tree here:
-  // otherwise the tree's path, which the tick takes once the probe leaves
-  // its clearance, would be out of the cache by then (tens of microseconds
-  // on a 1M-vertex organ, against about one warm).
-  for (std::size_t d = 0; d < dense; ++d) {
-    warm_memory_[d] = state_.memory[slot_of_[d]];
-    warm_memory_[d].cursor.clearance = 0;
-  }
+  for (std::size_t d = 0; d < dense; ++d) warm_memory_[d] = memory_for_warm_up(state_.memory[slot_of_[d]]);
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
               std::span<ProbeMemory>(warm_memory_.data(), dense), std::span<ProbeOutput>(warm_outputs_.data(), dense),
               state_.force, state_.shape, last_tissue_ ? &tissue_tick_ : nullptr);
