@@ -31,6 +31,8 @@
 // the haptic thread paces its ticks, with no other thread of this program
 // running; the deadlines it misses are the machine's, not the loop's.
 
+#include "loop_bench_scene.h"
+
 #include "devices/loader.h"
 #include "haptics/cpu_plan.h"
 #include "haptics/loop.h"
@@ -141,18 +143,14 @@ Options parse(int argc, char** argv) {
 }
 
 // A trajectory pressing 4 mm into the surface at `point` along -normal and
-// circling 3 mm around it; `phase` (s) shifts it in time. Period 3 s.
+// circling 3 mm around it (loop_scene::path_point); `phase` (s) shifts it in
+// time. Sampled 600 times a period.
 std::string write_trajectory(const std::filesystem::path& file, const Vec3& point, const Vec3& normal, double phase) {
-  Vec3 t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
   std::ofstream f(file);
   f << "# benchmark probe: press 4 mm and circle 3 mm, period 3 s\nt,x,y,z,buttons\n";
-  const double period = 3.0;
   for (int k = 0; k <= 600; ++k) {
-    const double t = k * period / 600;
-    const double u = t + phase;
-    const double height = 0.004 - 0.008 * 0.5 * (1 - std::cos(2 * std::numbers::pi * u / period));
-    const double a = 2 * std::numbers::pi * u / 1.5;
-    const Vec3 p = point + height * normal + 0.003 * (std::cos(a) * t1 + std::sin(a) * t2);
+    const double t = k * bench::loop_scene::kPeriod / 600;
+    const Vec3 p = bench::loop_scene::path_point(point, normal, t + phase);
     char line[160];
     std::snprintf(line, sizeof line, "%.6f,%.9f,%.9f,%.9f,0\n", t, p[0], p[1], p[2]);
     f << line;
@@ -459,21 +457,17 @@ int main(int argc, char** argv) {
   auto t0 = std::chrono::steady_clock::now();
   scene.mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_organ(o.vertices));
   if (o.spatial_order) mesh::reorder_spatially(*scene.mesh);
-  deform::Material m;
-  m.stiffness = 300;  // N/m per vertex
-  m.damping = 2;
-  m.mass = 1e-3;
-  scene.materials = deform::MaterialArrays::uniform(scene.mesh->vertex_count(), m);
+  scene.materials = deform::MaterialArrays::uniform(scene.mesh->vertex_count(), bench::loop_scene::material());
   std::printf("organ: %zu vertices, %zu triangles, built in %.1f s\n", scene.mesh->vertex_count(),
               scene.mesh->triangle_count(), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   const collision::VertexTree tree(std::span<const Vec3>(scene.mesh->positions));
   const auto dir = std::filesystem::temp_directory_path() / "palpa-loop-bench";
   std::filesystem::create_directories(dir);
-  const double xs[3] = {-0.05, 0.0, 0.05};
-  for (int i = 0; i < 3; ++i) {
-    const Index v = tree.nearest(Vec3(xs[i], 0.0, 1.0)).vertex;  // on top of the organ
+  for (int i = 0; i < bench::loop_scene::kProbes; ++i) {
+    const Index v = tree.nearest(Vec3(bench::loop_scene::kProbeX[i], 0.0, 1.0)).vertex;  // on top of the organ
     scene.trajectories.push_back(write_trajectory(dir / ("probe" + std::to_string(i) + ".csv"),
-                                                  scene.mesh->positions[v], scene.mesh->normals[v], 0.7 * i));
+                                                  scene.mesh->positions[v], scene.mesh->normals[v],
+                                                  bench::loop_scene::kPhase * i));
   }
 
   {

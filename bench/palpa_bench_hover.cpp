@@ -2,6 +2,8 @@
 
 #include "palpa_bench_hover.h"
 
+#include "loop_bench_scene.h"
+
 #include "collision/vertex_tree.h"
 #include "deform/surface.h"
 #include "haptics/probe_tick.h"
@@ -9,34 +11,21 @@
 #include "mesh/spatial_order.h"
 #include "palpa_bench_util.h"
 
-#include <Eigen/Geometry>
-
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstdio>
 #include <memory>
-#include <numbers>
 #include <span>
 #include <vector>
 
 namespace palpa::bench {
 namespace {
 
-constexpr int kProbes = 3;
+// palpa-loop-bench's three probes and paths (loop_bench_scene.h).
+using loop_scene::kProbes;
 constexpr double kTick = 1e-3;       // s, 1 kHz
 constexpr int kTicksPerStep = 10;    // a deformation step at 100 Hz
 constexpr std::size_t kWarmupTicks = 3000;
-
-// palpa-loop-bench's path (write_trajectory): from 4 mm above the point
-// along its normal to 4 mm below and back (period 3 s) while circling 3 mm
-// round it (period 1.5 s); probe i starts 0.7 i s later in the cycle.
-Vec3 path_point(const Vec3& point, const Vec3& normal, double t) {
-  const Vec3 t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
-  const double height = 0.004 - 0.008 * 0.5 * (1 - std::cos(2 * std::numbers::pi * t / 3.0));
-  const double a = 2 * std::numbers::pi * t / 1.5;
-  return point + height * normal + 0.003 * (std::cos(a) * t1 + std::sin(a) * t2);
-}
 
 struct RunResult {
   Latency tick;
@@ -46,11 +35,8 @@ struct RunResult {
 
 RunResult run(const std::shared_ptr<const mesh::SurfaceMesh>& mesh, const collision::VertexTree& tree,
               const std::array<Vec3, kProbes>& point, const std::array<Vec3, kProbes>& normal, std::size_t ticks) {
-  deform::Material material;  // palpa-loop-bench's
-  material.stiffness = 300;
-  material.damping = 2;
-  material.mass = 1e-3;
-  deform::DeformableSurface surface(mesh, deform::MaterialArrays::uniform(mesh->vertex_count(), material));
+  deform::DeformableSurface surface(mesh,
+                                    deform::MaterialArrays::uniform(mesh->vertex_count(), loop_scene::material()));
   deform::ShapeFunction shape;
   shape.radius = 0.015;
   std::array<haptics::ProbeMemory, kProbes> memory{}, warm_memory{};
@@ -65,14 +51,13 @@ RunResult run(const std::shared_ptr<const mesh::SurfaceMesh>& mesh, const collis
   for (std::size_t k = 0; k < kWarmupTicks + ticks; ++k) {
     const double t = static_cast<double>(k) * kTick;
     for (int p = 0; p < kProbes; ++p) {
-      const Vec3 x = path_point(point[p], normal[p], t + 0.7 * p);
+      const Vec3 x = loop_scene::path_point(point[p], normal[p], t + loop_scene::kPhase * p);
       in[p] = {x, k == 0 ? Vec3::Zero() : Vec3((x - last[p].position) / kTick)};
     }
     // The loop's warm-up (LoopCore::warm_caches): the last tick again, into
     // scratch, asking the tree for the probes it did not search for.
     if (k > 0) {
-      warm_memory = memory;
-      for (auto& w : warm_memory) w.cursor.clearance = 0;
+      for (int p = 0; p < kProbes; ++p) warm_memory[p] = haptics::memory_for_warm_up(memory[p]);
       haptics::haptic_tick(surface, tree, last, warm_memory, warm_out, haptics::ForceParams{}, shape);
     }
     const auto t0 = Clock::now();
@@ -111,9 +96,8 @@ void run_hover_bench(std::size_t vertices, std::size_t ticks, int rounds, nlohma
   const collision::VertexTree knows(*mesh), positions_only(std::span<const Vec3>(mesh->positions));
   // The three probes on top of the organ, as in palpa-loop-bench.
   std::array<Vec3, kProbes> point, normal;
-  const double xs[kProbes] = {-0.05, 0.0, 0.05};
   for (int p = 0; p < kProbes; ++p) {
-    const Index v = positions_only.nearest(Vec3(xs[p], 0.0, 1.0)).vertex;
+    const Index v = positions_only.nearest(Vec3(loop_scene::kProbeX[p], 0.0, 1.0)).vertex;
     point[p] = mesh->positions[v];
     normal[p] = mesh->normals[v];
   }
