@@ -804,6 +804,14 @@ TEST(ContactWalk, QueryContactWalksOnlyInContactAndWithoutJumps) {
 // The clearance of a tree answer above the surface (track_contact's path
 // Clear) against the distance to the surface by brute force.
 
+// The largest triangle_reach of the mesh's triangles, m.
+double largest_triangle_reach(const mesh::SurfaceMesh& m) {
+  double reach = 0;
+  for (const auto& t : m.triangles)
+    reach = std::max(reach, triangle_reach(m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]));
+  return reach;
+}
+
 // Distance (m) from q to the triangle abc: to its plane when the foot lies
 // inside, else to the nearest of its edges.
 double distance_to_triangle(const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -838,9 +846,7 @@ double distance_to_surface(const mesh::SurfaceMesh& m, const Vec3& q) {
 // how many answers left one.
 int check_clearance(const mesh::SurfaceMesh& m, std::mt19937& rng, int count, const std::string& what) {
   const VertexTree tree(m);
-  double reach = 0;  // the largest triangle's
-  for (const auto& t : m.triangles)
-    reach = std::max(reach, triangle_reach(m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]));
+  const double reach = largest_triangle_reach(m);
   std::uniform_int_distribution<Index> pick(0, static_cast<Index>(m.triangle_count() - 1));
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   int cleared = 0;
@@ -895,9 +901,7 @@ TEST(TrackContact, OutOfContactInsideTheClearanceTheLastAnswerHoldsWithoutASearc
   const double radius = 0.05;
   const auto m = mesh::make_sphere(20000, radius);
   const VertexTree tree(m);
-  double reach = 0;  // the largest triangle's
-  for (const auto& t : m.triangles)
-    reach = std::max(reach, triangle_reach(m.positions[t[0]], m.positions[t[1]], m.positions[t[2]]));
+  const double reach = largest_triangle_reach(m);
   const Vec3 dir = Vec3(1, 2, 3).normalized();
   ContactCursor cursor;
   const Vec3 above = dir * (radius + 0.004);
