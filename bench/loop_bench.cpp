@@ -97,6 +97,20 @@ struct Options {
   std::exit(2);
 }
 
+// The whole of `v` as a number from lo to hi, or the usage error
+// "OPTION: 'V' is not a number of UNIT from LO to HI".
+double number_in(const std::string& option, const std::string& v, double lo, double hi, const char* unit) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || !(x >= lo && x <= hi)) {
+    char why[200];
+    std::snprintf(why, sizeof why, "%s: '%s' is not a number of %s from %.10g to %.10g", option.c_str(), v.c_str(), unit,
+                  lo, hi);
+    usage(why);
+  }
+  return x;
+}
+
 Options parse(int argc, char** argv) {
   Options o;
   for (int i = 1; i < argc; ++i) {
@@ -106,19 +120,19 @@ Options parse(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "--seconds") {
-      o.seconds = std::atof(value().c_str());
-      if (!(o.seconds > 0)) usage("--seconds must be positive");
+      o.seconds = number_in(a, value(), 0.1, 3600, "seconds");
     } else if (a == "--rates") {
       o.rates.clear();
       std::stringstream s(value());
       std::string r;
-      while (std::getline(s, r, ',')) o.rates.push_back(std::atof(r.c_str()));
+      while (std::getline(s, r, ',')) o.rates.push_back(number_in(a, r, 10, 20000, "Hz"));
+      if (o.rates.empty()) usage("--rates: no rate given");
     } else if (a == "--vertices") {
-      o.vertices = static_cast<std::size_t>(std::atof(value().c_str()));
+      o.vertices = static_cast<std::size_t>(number_in(a, value(), 1000, 5e6, "vertices"));
     } else if (a == "--deform-rate") {
-      o.deform_rate = std::atof(value().c_str());
+      o.deform_rate = number_in(a, value(), 1, 1000, "Hz");
     } else if (a == "--spin-us") {
-      o.spin_us = std::atof(value().c_str());
+      o.spin_us = number_in(a, value(), 0, 1e6, "us");
     } else if (a == "--no-load-run") {
       o.load_run = false;
     } else if (a == "--load-only") {
@@ -130,13 +144,20 @@ Options parse(int argc, char** argv) {
     } else if (a == "--no-warm") {
       o.warm = false;
     } else if (a == "--floor-seconds") {
-      const std::string v = value();
-      char* end = nullptr;
-      o.floor_seconds = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !(o.floor_seconds >= 0 && o.floor_seconds <= 600))
-        usage(("--floor-seconds: '" + v + "' is not a number of seconds from 0 to 600").c_str());
+      o.floor_seconds = number_in(a, value(), 0, 600, "seconds");
     } else {
       usage(("unknown option " + a).c_str());
+    }
+  }
+  // A spin leaves the thread asleep for haptics::kHapticMinSleepShare of
+  // each period, as plan_haptic_spin caps it.
+  for (double rate : o.rates) {
+    const double most = (1 - haptics::kHapticMinSleepShare) * 1e6 / rate;
+    if (o.spin_us > most) {
+      char why[200];
+      std::snprintf(why, sizeof why, "--spin-us: %g us is more than %g us, %.0f%% of the %g us period at %g Hz",
+                    o.spin_us, most, 100 * (1 - haptics::kHapticMinSleepShare), 1e6 / rate, rate);
+      usage(why);
     }
   }
   return o;
@@ -275,7 +296,7 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   // real-time throttling (sched_rt_runtime_us: 50 ms in every second by
   // default), which a full-period spin showed as 50 ms stalls.
   const haptics::SpinPlan spin = haptics::haptic_spin(rate, c.haptic_cpu);
-  c.spin_us = o.spin_us >= 0 ? std::min(o.spin_us, (1 - haptics::kHapticMinSleepShare) * 1e6 / rate) : spin.spin_us;
+  c.spin_us = o.spin_us >= 0 ? o.spin_us : spin.spin_us;  // --spin-us: within that share (parse)
   if (o.spin_us >= 0)
     std::printf("  spin: %.0f us before each tick (--spin-us)\n", c.spin_us);
   else
