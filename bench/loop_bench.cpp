@@ -46,7 +46,6 @@
 #include <sched.h>
 #include <signal.h>
 #include <sys/mman.h>
-#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -217,11 +216,8 @@ struct Floor {
 Floor measure_floor(double rate, double spin_us, int cpu, int priority, double seconds) {
   Floor f;
   std::thread t([&] {
-    if (cpu >= 0) haptics::run_this_thread_on({cpu});
-    sched_param sp{};
-    sp.sched_priority = priority;
-    f.realtime = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp) == 0;
-    prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+    const int rc = haptics::prepare_haptic_thread(cpu, priority);
+    f.realtime = priority > 0 && rc == 0;
     haptics::LoopClock& clock = haptics::monotonic_clock();
     const auto period = static_cast<std::int64_t>(std::llround(1e9 / rate));
     const auto spin = static_cast<std::int64_t>(spin_us * 1e3);

@@ -2,6 +2,7 @@
 
 #include <pthread.h>
 #include <sched.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/utsname.h>
 #include <unistd.h>
@@ -123,6 +124,18 @@ int run_this_thread_on(const std::vector<int>& cpus) {
   CPU_ZERO(&set);
   for (int c : cpus) CPU_SET(c, &set);
   return pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+}
+
+int prepare_haptic_thread(int cpu, int priority) {
+  if (cpu >= 0) run_this_thread_on({cpu});
+  int rc = 0;
+  if (priority > 0) {
+    sched_param p{};
+    p.sched_priority = priority;
+    rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+  }
+  prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+  return rc;
 }
 
 CpuPlan decide_haptic_cpu(const std::string& env) {

@@ -47,6 +47,13 @@ std::vector<int> cpus_of_this_thread();
 /// pthread_setaffinity_np gave (EINVAL for an empty list).
 int run_this_thread_on(const std::vector<int>& cpus);
 
+/// Sets up the calling thread as the haptic thread runs: only on `cpu`
+/// (when >= 0), at SCHED_FIFO with `priority` (when > 0), and with a timer
+/// slack of 1 ns so that its sleeps end when asked. Returns 0, or the error
+/// pthread_setschedparam gave (the thread then keeps its policy). The
+/// loop's haptic thread and palpa-loop-bench's machine floor use it.
+int prepare_haptic_thread(int cpu, int priority);
+
 /// The CPU reserve_haptic_cpu() kept, or -1 (not called, or nothing kept).
 int reserved_haptic_cpu();
 

@@ -3,7 +3,6 @@
 
 #include <pthread.h>
 #include <sched.h>
-#include <sys/prctl.h>
 #include <time.h>
 
 #include <algorithm>
@@ -628,11 +627,8 @@ void HapticLoop::deform_main() {
 void HapticLoop::haptic_main() {
   // Real-time setup: pinning, SCHED_FIFO when allowed, no timer slack, a
   // prefaulted stack.
-  pin_to_cpu(config_.haptic_cpu);
+  const int rc = prepare_haptic_thread(config_.haptic_cpu, config_.realtime ? config_.realtime_priority : 0);
   if (config_.realtime) {
-    sched_param p{};
-    p.sched_priority = config_.realtime_priority;
-    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
     if (rc == 0) {
       realtime_.store(true);
       realtime_notice_ = "haptic thread runs with SCHED_FIFO priority " + std::to_string(config_.realtime_priority);
@@ -644,7 +640,6 @@ void HapticLoop::haptic_main() {
   } else {
     realtime_notice_ = "real-time priority not requested (realtime = false)";
   }
-  prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
   prefault_stack();
 
   LoopClock& clock = *clock_;

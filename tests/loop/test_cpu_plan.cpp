@@ -8,10 +8,12 @@
 
 #include <pthread.h>
 #include <sched.h>
+#include <sys/prctl.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -111,6 +113,32 @@ TEST(CpuPlan, ReadsAndSetsTheCpusOfTheCallingThreadAndDecidesWithoutApplying) {
     EXPECT_EQ(run_this_thread_on({mine.front()}), 0);
     EXPECT_EQ(affinity_of_this_thread(), std::vector<int>{mine.front()});
     EXPECT_EQ(cpus_of_this_thread(), std::vector<int>{mine.front()});
+  }).join();
+}
+
+TEST(CpuPlan, PreparingAHapticThreadPinsItTightensItsTimerSlackAndAsksForSchedFifo) {
+  std::thread([] {
+    const std::vector<int> mine = affinity_of_this_thread();
+    ASSERT_FALSE(mine.empty());
+    prctl(PR_SET_TIMERSLACK, 50000UL, 0, 0, 0);  // the kernel's default, 50 us
+    // No priority: pinned and 1 ns of slack, the policy untouched.
+    EXPECT_EQ(prepare_haptic_thread(mine.back(), 0), 0);
+    EXPECT_EQ(affinity_of_this_thread(), std::vector<int>{mine.back()});
+    EXPECT_EQ(prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0), 1);
+    EXPECT_EQ(sched_getscheduler(0), SCHED_OTHER);
+    // Priority 80: SCHED_FIFO where the process may, else the error and the
+    // policy as it was (said, not skipped).
+    const int rc = prepare_haptic_thread(-1, 80);
+    if (rc == 0) {
+      EXPECT_EQ(sched_getscheduler(0), SCHED_FIFO);
+      sched_param p{};
+      pthread_setschedparam(pthread_self(), SCHED_OTHER, &p);
+    } else {
+      std::printf("SCHED_FIFO not allowed here (%s): the thread kept its policy\n", std::strerror(rc));
+      EXPECT_EQ(sched_getscheduler(0), SCHED_OTHER);
+    }
+    // cpu -1 leaves the CPUs as they were.
+    EXPECT_EQ(affinity_of_this_thread(), std::vector<int>{mine.back()});
   }).join();
 }
 
