@@ -56,14 +56,7 @@ void validate_material(const Material& m, const std::string& what) {
     fail(what, "relaxation", "non-negative and finite", m.relaxation, "(fraction)");
 }
 
-Material scaled(const Material& m, double scale) {
-  Material out = m;
-  out.stiffness *= scale;
-  out.k2 *= scale;
-  out.hertz *= scale;
-  out.damping *= std::sqrt(scale);
-  return out;
-}
+Material scaled(const Material& m, double scale) { return scaled(m, scale, std::sqrt(scale)); }
 
 MaterialArrays MaterialArrays::uniform(std::size_t n, const Material& m) {
   MaterialArrays a;

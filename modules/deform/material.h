@@ -63,6 +63,18 @@ void validate_material(const Material& m, const std::string& what);
 /// times scale, damping times sqrt(scale) (so the damping ratio is kept).
 Material scaled(const Material& m, double scale);
 
+/// scaled(m, scale) with its square root given, root = std::sqrt(scale)
+/// (the same bits then): for a loop over vertices that keeps each vertex's
+/// root, so that no square root lies on the path of every vertex's step.
+inline Material scaled(const Material& m, double scale, double root) {
+  Material out = m;
+  out.stiffness *= scale;
+  out.k2 *= scale;
+  out.hertz *= scale;
+  out.damping *= root;
+  return out;
+}
+
 /// Structure-of-arrays material map, one entry per vertex.
 struct MaterialArrays {
   std::vector<LocalModelKind> model;

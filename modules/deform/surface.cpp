@@ -289,7 +289,14 @@ void DeformableSurface::set_tissue_map(std::vector<Material> tissues, std::span<
   integrator_of_.assign(tissue_of.begin(), tissue_of.end());
   bool ones = true;
   for (float v : scale) ones = ones && v == 1.0f;
-  if (ones) scale_.clear(); else scale_.assign(scale.begin(), scale.end());
+  if (ones) {
+    scale_.clear();
+    scale_root_.clear();
+  } else {
+    scale_.assign(scale.begin(), scale.end());
+    scale_root_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) scale_root_[i] = std::sqrt(static_cast<double>(scale_[i]));
+  }
 }
 
 void DeformableSurface::set_drives(std::vector<Index> vertices, std::vector<std::array<float, 4>> weights) {
@@ -315,7 +322,10 @@ void DeformableSurface::set_material(Index i, const Material& m) {
   validate_material(m, "material of vertex " + std::to_string(i));
   fields_current_ = false;
   integrator_of_[i] = intern_material(m);
-  if (!scale_.empty()) scale_[i] = 1.0f;
+  if (!scale_.empty()) {
+    scale_[i] = 1.0f;
+    scale_root_[i] = 1.0;
+  }
   // Painting many distinct values leaves unused integrators behind: compact now and then.
   if (integrators_.size() > 2 * integrator_of_.size() + 64) compact_integrators();
 }
@@ -324,6 +334,7 @@ void DeformableSurface::set_materials(const MaterialArrays& materials) {
   materials.validate(mesh_->vertex_count());
   build_integrators(materials);
   scale_.clear();
+  scale_root_.clear();
 }
 
 void DeformableSurface::set_uniform_material(const Material& m) {
@@ -342,6 +353,7 @@ void DeformableSurface::set_uniform_material(const Material& m) {
   integrator_lookup_.clear();
   integrator_lookup_.emplace(key_of(m), Index{0});
   scale_.clear();
+  scale_root_.clear();
 }
 
 namespace {
@@ -629,6 +641,7 @@ struct DeformableSurface::Sweep {
   const Index* integrator_of;
   const Integrator* integrators;
   const float* scale;  // null: all 1
+  const double* scale_root;  // sqrt of each scale (null with scale)
   std::uint8_t* flags;
   float* stream;
   const double* limit;
@@ -646,6 +659,7 @@ struct DeformableSurface::Sweep {
         integrator_of(s.integrator_of_.data()),
         integrators(s.integrators_.data()),
         scale(s.scale_.empty() ? nullptr : s.scale_.data()),
+        scale_root(s.scale_.empty() ? nullptr : s.scale_root_.data()),
         flags(s.flags_.data()),
         stream(s.stream_.data()),
         limit(s.drawn_limit_),
@@ -676,7 +690,7 @@ struct DeformableSurface::Sweep {
     if (si != 1.0f) {
       // A scaled vertex (tissue maps: Hertz, integrated without a cache; a
       // scaled Linear vertex makes its coefficients here, slowly).
-      const Material m = scaled(g.material, static_cast<double>(si));
+      const Material m = scaled(g.material, static_cast<double>(si), scale_root[i]);
       if (m.model == LocalModelKind::Linear) LinearStep::make(m, dt).apply(s, fi);
       else local_model(m.model).step(m, s, fi, dt);
     } else if (g.material.model == LocalModelKind::Linear) {
@@ -751,6 +765,7 @@ void DeformableSurface::step(double dt) {
       __builtin_prefetch(sweep.integrator_of + a);
       __builtin_prefetch(sweep.stream + 4 * static_cast<std::size_t>(a), 1);
       __builtin_prefetch(sweep.limit + a);
+      if (sweep.scale_root) __builtin_prefetch(sweep.scale_root + a);
     }
     const Index i = active[k];
     if (sweep.advance(i)) active[kept++] = i;

@@ -120,7 +120,7 @@ class DeformableSurface {
   /// The material vertex i actually has: material(i) scaled by modulus_scale(i)
   /// (deform::scaled). i < vertex count.
   Material vertex_material(Index i) const {
-    return scale_.empty() ? material(i) : scaled(material(i), static_cast<double>(scale_[i]));
+    return scale_.empty() ? material(i) : scaled(material(i), static_cast<double>(scale_[i]), scale_root_[i]);
   }
   /// Hints the processor to fetch what deformed_normal(i), material(i) and
   /// state() read for vertex i into cache (no effect on results; lets the
@@ -303,6 +303,10 @@ class DeformableSurface {
   std::unordered_map<MaterialKey, Index, MaterialKeyHash> integrator_lookup_;
   double coefficients_dt_ = 0;           // s; dt the Linear coefficients were made for (0: none)
   std::vector<float> scale_;             // per vertex modulus multiplier (empty: all 1)
+  // sqrt of each scale_ entry (as a double; empty with scale_): the factor of
+  // a scaled vertex's damping, kept so the step takes no square root per
+  // vertex (on a mapped 1M surface it made the steady step 1.17x a uniform one's).
+  std::vector<double> scale_root_;
   std::vector<Index> drive_vertices_;    // set_drives
   std::vector<std::array<float, 4>> drive_weights_;
   std::array<double, 4> drive_values_{};  // m
