@@ -13,6 +13,7 @@
 // Usage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]
 //                         [--deform-rate HZ (100)] [--spin-us US] [--no-load-run] [--load-only]
 //                         [--as-built-order] [--no-placement] [--no-warm] [--floor-seconds S (5)]
+//                         [--no-draw]
 //
 // --spin-us: busy-wait this long before each tick (at most 85% of a period)
 // instead of sleeping to the deadline, which hides wake-up latency. By
@@ -30,6 +31,9 @@
 // none), with the second core idle and then busy: an empty tick paced as
 // the haptic thread paces its ticks, with no other thread of this program
 // running; the deadlines it misses are the machine's, not the loop's.
+// --no-draw: the renderer still takes the changed stream into the surface
+// view at 60 Hz but draws no frame: what the software renderer's drawing
+// costs the haptic thread (on a CPU of its own) shows against a run with it.
 
 #include "loop_bench_scene.h"
 
@@ -82,6 +86,7 @@ struct Options {
   bool warm = true;     // LoopConfig::warm_before_tick
   bool spatial_order = true;  // mesh::reorder_spatially, as load_organ numbers every organ
   bool placement = true;      // haptics::reserve_haptic_cpu
+  bool draw = true;           // the renderer draws each frame (--no-draw: it only takes the stream)
   double floor_seconds = 5;   // the machine's floor before each run (0: none)
   int width = 640;   // offscreen frame, pixels
   int height = 480;
@@ -91,7 +96,8 @@ struct Options {
   std::fprintf(stderr,
                "palpa-loop-bench: %s\nusage: palpa-loop-bench [--seconds S] [--rates 1000,4000] [--vertices N]\n"
                "                        [--deform-rate HZ] [--spin-us US] [--no-load-run] [--load-only]\n"
-               "                        [--as-built-order] [--no-placement] [--no-warm] [--floor-seconds S]\n",
+               "                        [--as-built-order] [--no-placement] [--no-warm] [--floor-seconds S]\n"
+               "                        [--no-draw]\n",
                why);
   std::exit(2);
 }
@@ -142,6 +148,8 @@ Options parse(int argc, char** argv) {
       o.placement = false;
     } else if (a == "--no-warm") {
       o.warm = false;
+    } else if (a == "--no-draw") {
+      o.draw = false;
     } else if (a == "--floor-seconds") {
       o.floor_seconds = number_in(a, value(), 0, 600, "seconds");
     } else {
@@ -363,7 +371,7 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
         if (!ranges.empty()) surface_view.update(pulled, ranges);
         box.end_read();
         for (const auto& r : ranges) uploaded += 16ull * (r.end - r.begin);
-        view_scene.window().render();
+        if (o.draw) view_scene.window().render();
         frame_ms_sum += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - f0).count();
         const haptics::LoopView v = loop.view();
         (void)v;
@@ -434,9 +442,10 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   print_timing("deform step x2", s.deform_step);
   std::uint32_t contacts = 0;
   for (std::uint32_t i = 0; i < v.probe_count; ++i) contacts += v.probes[i].in_contact;
-  std::printf("  renderer (%s, %dx%d, no display): %llu frames, mean %.1f ms each, %.1f MB of stream uploaded; "
+  std::printf("  renderer (%s, %dx%d, no display%s): %llu frames, mean %.1f ms each, %.1f MB of stream uploaded; "
               "probes in contact at the end: %u of %u\n",
               render_error.empty() ? render_backend.c_str() : "FAILED", o.width, o.height,
+              o.draw ? "" : ", --no-draw: the stream taken, nothing drawn",
               static_cast<unsigned long long>(frames), frames ? frame_ms_sum / frames : 0.0, uploaded / 1e6, contacts,
               v.probe_count);
   const double deform_period_ms = 1e3 / o.deform_rate;
