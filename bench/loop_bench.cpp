@@ -46,7 +46,6 @@
 #include "render/scene.h"
 #include "render/surface_view.h"
 
-#include <pthread.h>
 #include <sched.h>
 #include <signal.h>
 #include <sys/mman.h>
@@ -64,7 +63,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <sstream>
 #include <string>
 #include <thread>

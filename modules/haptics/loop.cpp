@@ -1,8 +1,6 @@
 #include "haptics/loop.h"
 #include "haptics/spin_warm.h"
 
-#include <pthread.h>
-#include <sched.h>
 #include <time.h>
 
 #include <algorithm>
