@@ -102,6 +102,9 @@ int main(int argc, char** argv) {
   std::printf("palpa: %s\n", plan.note.c_str());
   std::printf("palpa: %s\n",
               palpa::haptics::haptic_spin(palpa::app::Workbench::kHapticRateHz, plan.haptic_cpu).note.c_str());
+  if (const std::string memory = palpa::haptics::memory_monitor_notice(palpa::haptics::running_memory_monitors());
+      !memory.empty())
+    std::printf("palpa: %s\n", memory.c_str());
   std::fflush(stdout);
   palpa::app::configure_application_defaults();
   QApplication app(argc, argv);

@@ -154,4 +154,26 @@ bool has_cap_sys_nice(const std::string& proc_self_status_text);
 /// to anyone (sched_rt_runtime_us = 0).
 std::string realtime_refused_advice(int error, int priority, const RealtimeContext& context);
 
+/// One DAMON monitoring thread (kdamond) found running.
+struct MemoryMonitor {
+  int index = -1;          ///< its number under kdamonds/ (its thread is kdamond.INDEX)
+  std::string operations;  ///< its first context's address space: "paddr" (physical memory), "vaddr", "fvaddr"
+  long long sample_us = -1;  ///< that context's sampling interval, us (-1: unknown)
+};
+
+/// The kdamonds whose state is "on" under `damon_admin`, DAMON's sysfs
+/// interface (/sys/kernel/mm/damon/admin); empty where there is none (no
+/// DAMON, or nothing readable). File reads: not for the haptic thread.
+std::vector<MemoryMonitor> running_memory_monitors(const std::string& damon_admin = "/sys/kernel/mm/damon/admin");
+
+/// What to tell the user about `monitors` ("" for none): each kdamond,
+/// what it samples and how to stop it. DAMON samples memory by clearing the
+/// page tables' accessed bits. On the 2-core VM of CI (a paravirtualised
+/// guest, with kdamond.0 sampling physical memory every 500 ms) the haptic
+/// thread missed 0.02 to 0.33% of its 1 kHz deadlines while llvmpipe drew
+/// with DAMON running (0.16 to 0.36% in every run before it was restarted),
+/// and 0 to 0.08% with it off; at 4 kHz it lost 1.7 to 7.9 times as many
+/// periods with it running (docs/PERFORMANCE.md, round 18).
+std::string memory_monitor_notice(const std::vector<MemoryMonitor>& monitors);
+
 }  // namespace palpa::haptics

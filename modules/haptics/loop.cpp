@@ -235,7 +235,11 @@ void HapticLoop::start() {
   if (tick_ == 0) meta_[0].time = meta_[1].time = t0;
   start_time_.store(t0);
   deform_start_time_.store(t0);
-  if (config_.realtime) realtime_context_ = read_realtime_context();  // file reads: not on the haptic thread
+  if (config_.realtime) {
+    // File reads: not on the haptic thread.
+    realtime_context_ = read_realtime_context();
+    memory_notice_ = memory_monitor_notice(running_memory_monitors());
+  }
   running_.store(true);
   deform_thread_ = std::thread([this] { deform_main(); });
   haptic_thread_ = std::thread([this] { haptic_main(); });
@@ -638,6 +642,7 @@ void HapticLoop::haptic_main() {
   } else {
     realtime_notice_ = "real-time priority not requested (realtime = false)";
   }
+  if (config_.realtime && !memory_notice_.empty()) realtime_notice_ += "; " + memory_notice_;
   prefault_stack();
 
   LoopClock& clock = *clock_;

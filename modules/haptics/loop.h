@@ -371,6 +371,7 @@ class HapticLoop {
   std::atomic<bool> realtime_{false};
   std::string realtime_notice_;  // written before haptic_ready_, read after
   RealtimeContext realtime_context_;  // read by start() when realtime is asked for
+  std::string memory_notice_;         // memory_monitor_notice, read by start() with it
   std::uint32_t static_warnings_ = 0;
 };
 

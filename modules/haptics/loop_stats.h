@@ -72,7 +72,10 @@ struct LoopStatistics {
   std::uint64_t deform_overruns = 0;  ///< deformation periods skipped because a step overran
   TimingSummary deform_step;          ///< time of one deformation step (both replicas), us
   bool realtime = false;              ///< the haptic thread got real-time priority
-  std::string realtime_notice;        ///< why not, and what to do
+  /// Whether it got it and, if not, why and what to do; with real-time
+  /// priority asked for, also what on the machine is known to stall the
+  /// haptic thread (memory_monitor_notice), after "; ".
+  std::string realtime_notice;
 };
 
 }  // namespace palpa::haptics

@@ -9,6 +9,7 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/prctl.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -16,6 +17,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -344,6 +347,72 @@ TEST(RealtimeRefused, SaysWhatStandsInTheWay) {
 
   // Another error is named as it is.
   EXPECT_NE(realtime_refused_advice(EINVAL, 80, boxed).find(std::strerror(EINVAL)), std::string::npos);
+}
+
+// A DAMON sysfs tree (kdamonds/N/state, contexts/0/operations,
+// contexts/0/monitoring_attrs/intervals/sample_us) in a temporary folder.
+class DamonTree {
+ public:
+  DamonTree() {
+    root_ = std::filesystem::temp_directory_path() /
+            ("palpa-damon-" + std::to_string(::getpid()) + "-" +
+             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(root_);
+    std::filesystem::create_directories(root_ / "kdamonds");
+    write("kdamonds/nr_kdamonds", "0\n");
+  }
+  ~DamonTree() { std::filesystem::remove_all(root_); }
+  void add(int n, const std::string& state, const std::string& operations, const std::string& sample_us) {
+    const std::string k = "kdamonds/" + std::to_string(n);
+    std::filesystem::create_directories(root_ / k / "contexts/0/monitoring_attrs/intervals");
+    write(k + "/state", state + "\n");
+    if (!operations.empty()) write(k + "/contexts/0/operations", operations + "\n");
+    if (!sample_us.empty()) write(k + "/contexts/0/monitoring_attrs/intervals/sample_us", sample_us + "\n");
+  }
+  std::string path() const { return root_.string(); }
+
+ private:
+  void write(const std::string& rel, const std::string& text) { std::ofstream(root_ / rel) << text; }
+  std::filesystem::path root_;
+};
+
+TEST(MemoryMonitor, FindsTheKdamondsThatAreOnWithWhatTheySample) {
+  DamonTree t;
+  t.add(0, "on", "paddr", "500000");
+  t.add(1, "off", "vaddr", "5000");
+  t.add(12, "on", "vaddr", "");  // sampling interval unreadable
+  t.add(2, "on", "", "bogus");   // no operations file, a sampling interval that is no number
+  const std::vector<MemoryMonitor> m = running_memory_monitors(t.path());
+  ASSERT_EQ(m.size(), 3u);
+  EXPECT_EQ(m[0].index, 0);
+  EXPECT_EQ(m[0].operations, "paddr");
+  EXPECT_EQ(m[0].sample_us, 500000);
+  EXPECT_EQ(m[1].index, 2);
+  EXPECT_EQ(m[1].operations, "");
+  EXPECT_EQ(m[1].sample_us, -1);
+  EXPECT_EQ(m[2].index, 12);
+  EXPECT_EQ(m[2].operations, "vaddr");
+  EXPECT_EQ(m[2].sample_us, -1);
+
+  const std::string notice = memory_monitor_notice(m);
+  EXPECT_NE(notice.find("kdamond.0 (physical memory, sampled every 500 ms)"), std::string::npos) << notice;
+  EXPECT_NE(notice.find("kdamond.12 (vaddr)"), std::string::npos) << notice;
+  EXPECT_NE(notice.find("kdamond.2,"), std::string::npos) << notice;
+  EXPECT_EQ(notice.find("kdamond.1 "), std::string::npos) << notice;  // off: not named
+  EXPECT_NE(notice.find("echo off > /sys/kernel/mm/damon/admin/kdamonds/0/state; "
+                        "echo off > /sys/kernel/mm/damon/admin/kdamonds/2/state; "
+                        "echo off > /sys/kernel/mm/damon/admin/kdamonds/12/state"),
+            std::string::npos)
+      << notice;
+}
+
+TEST(MemoryMonitor, SaysNothingWithoutARunningKdamond) {
+  DamonTree t;
+  EXPECT_TRUE(running_memory_monitors(t.path()).empty());
+  t.add(0, "off", "paddr", "500000");
+  EXPECT_TRUE(running_memory_monitors(t.path()).empty());
+  EXPECT_TRUE(running_memory_monitors(t.path() + "/no-such-folder").empty());
+  EXPECT_EQ(memory_monitor_notice({}), "");
 }
 
 }  // namespace
