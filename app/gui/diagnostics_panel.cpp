@@ -6,6 +6,7 @@
 
 #include <QFormLayout>
 #include <QLabel>
+#include <QStringList>
 
 #include <string>
 
@@ -33,6 +34,23 @@ DiagnosticsPanel::DiagnosticsPanel(QWidget* parent) : QWidget(parent) {
         "Haptic thread CPU",
         "The CPU the haptic thread has to itself; every other thread, the software renderer's included, runs on the "
         "others (PALPA_HAPTIC_CPU=off or a CPU number in the environment changes it)");
+  memory_monitor_ = label("memoryMonitorReadout", "none", "Memory monitor", "");
+  set_memory_monitors(haptics::running_memory_monitors());
+}
+
+void DiagnosticsPanel::set_memory_monitors(const std::vector<haptics::MemoryMonitor>& monitors) {
+  memory_monitored_ = !monitors.empty();
+  if (monitors.empty()) {
+    memory_monitor_->setText("none");
+    memory_monitor_->setToolTip(
+        "No DAMON monitor samples this machine's memory (on a virtual machine its sampling stalled the haptic "
+        "thread for milliseconds)");
+    return;
+  }
+  QStringList names;
+  for (const auto& m : monitors) names << QString("kdamond.%1").arg(m.index);
+  memory_monitor_->setText("DAMON: " + names.join(", "));
+  memory_monitor_->setToolTip(QString::fromStdString(haptics::memory_monitor_notice(monitors)));
 }
 
 void DiagnosticsPanel::restart() {
@@ -69,8 +87,11 @@ void DiagnosticsPanel::feed(const DiagnosticsSample& s) {
   window_misses_ = s.deadline_misses;
   if (bad_seconds_ >= kBadSeconds)
     set_warning(QString("The haptic loop is missing deadlines (%1 % of ticks in the last second): the feel may be "
-                        "rough. Close other programs, use fewer probes or a smaller mesh.")
-                    .arg(100.0 * fraction, 0, 'f', 1));
+                        "rough. Close other programs, use fewer probes or a smaller mesh.%2")
+                    .arg(100.0 * fraction, 0, 'f', 1)
+                    .arg(memory_monitored_ ? " DAMON is sampling this machine's memory, which can stall the haptic "
+                                             "thread: see Diagnostics > Memory monitor."
+                                           : ""));
   else if (bad_seconds_ == 0)
     set_warning({});
 }

@@ -5,12 +5,17 @@
 // than 1 % of the ticks miss their deadline in each of 3 consecutive
 // seconds it raises a warning with advice (warningChanged; the window shows
 // it in the status bar), and clears it after a good second. Fed figures
-// directly (feed()), it needs no timing of its own.
+// directly (feed()), it needs no timing of its own. It also says whether a
+// DAMON monitor samples the machine's memory (the "Memory monitor" row),
+// which on the CI VM stalled the haptic thread for milliseconds.
+
+#include "haptics/cpu_plan.h"
 
 #include <QString>
 #include <QWidget>
 
 #include <cstdint>
+#include <vector>
 
 class QLabel;
 
@@ -41,6 +46,11 @@ class DiagnosticsPanel : public QWidget {
   /// The warning shown now (empty: none).
   QString warning() const { return warning_; }
   int bad_seconds() const { return bad_seconds_; }
+  /// The DAMON monitors running on the machine (the constructor reads them:
+  /// haptics::running_memory_monitors): shown in the "Memory monitor" row,
+  /// with haptics::memory_monitor_notice as its tooltip, and named in the
+  /// missed-deadline warning (docs/PERFORMANCE.md, round 18).
+  void set_memory_monitors(const std::vector<haptics::MemoryMonitor>& monitors);
 
  signals:
   void warningChanged(const QString& text);
@@ -54,6 +64,8 @@ class DiagnosticsPanel : public QWidget {
   QLabel* miss_fraction_ = nullptr;
   QLabel* frame_ = nullptr;
   QLabel* renders_ = nullptr;
+  QLabel* memory_monitor_ = nullptr;
+  bool memory_monitored_ = false;
   bool have_window_ = false;
   double window_start_ = 0;
   std::uint64_t window_ticks_ = 0, window_misses_ = 0;

@@ -329,6 +329,40 @@ TEST_F(ExamModeTest, TheDiagnosticsWarnOnlyOnSustainedMisses) {
   EXPECT_TRUE(w->findChild<QDockWidget*>("diagnosticsDock")->isAncestorOf(w->findChild<QLabel*>("tickP99Readout")));
 }
 
+TEST_F(ExamModeTest, TheDiagnosticsNameARunningMemoryMonitor) {
+  auto w = open_window();
+  DiagnosticsPanel* d = w->diagnostics();
+  auto* row = w->findChild<QLabel*>("memoryMonitorReadout");
+  ASSERT_NE(row, nullptr);
+  // Three whole seconds in which 4 % of the ticks miss: the warning, worded
+  // with the monitors known at that moment.
+  const auto sustained_misses = [&] {
+    d->restart();
+    double t = 1000;
+    std::uint64_t ticks = 0, missed = 0;
+    d->feed({t, ticks, missed, 1000, 80, 60, 1});
+    for (int half = 0; half < 2 * DiagnosticsPanel::kBadSeconds; ++half) {
+      t += 0.5;
+      ticks += 500;
+      missed += 20;
+      d->feed({t, ticks, missed, 1000, 80, 60, 1});
+    }
+    return d->warning();
+  };
+  d->set_memory_monitors({haptics::MemoryMonitor{0, "paddr", 500000}, haptics::MemoryMonitor{3, "vaddr", -1}});
+  EXPECT_EQ(row->text(), "DAMON: kdamond.0, kdamond.3");
+  EXPECT_TRUE(row->toolTip().contains("echo off > /sys/kernel/mm/damon/admin/kdamonds/3/state"))
+      << row->toolTip().toStdString();
+  const QString with = sustained_misses();
+  EXPECT_TRUE(with.contains("missing deadlines")) << with.toStdString();
+  EXPECT_TRUE(with.contains("DAMON is sampling")) << with.toStdString();
+  d->set_memory_monitors({});
+  EXPECT_EQ(row->text(), "none");
+  const QString without = sustained_misses();
+  EXPECT_TRUE(without.contains("missing deadlines")) << without.toStdString();
+  EXPECT_FALSE(without.contains("DAMON")) << without.toStdString();
+}
+
 // The frame timer draws only on change (an idle window took 65-73% of a
 // core redrawing the same picture).
 TEST_F(ExamModeTest, AnIdleWindowDrawsNothingAndAChangeDraws) {
