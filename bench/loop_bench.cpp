@@ -49,6 +49,7 @@
 #include <sched.h>
 #include <signal.h>
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -185,11 +186,15 @@ std::string write_trajectory(const std::filesystem::path& file, const Vec3& poin
 }
 
 // Another process spinning on a CPU that is not the haptic thread's (the
-// second core on a 2-CPU machine).
+// second core on a 2-CPU machine). It dies with this process, however that
+// ends (a timeout's SIGTERM, Ctrl-C), instead of spinning on as an orphan.
 pid_t start_load() {
   const int haptic = haptics::reserved_haptic_cpu();
+  const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid == 0) {
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(0);  // the parent ended before the line above
     cpu_set_t set;
     CPU_ZERO(&set);
     CPU_SET(haptic == 0 ? 1 : 0, &set);
