@@ -31,6 +31,15 @@ std::string read_text(const char* path) {
   return f ? out.str() : std::string();
 }
 
+// The first whitespace-separated word of a file ("" when unreadable), as
+// sysfs attributes hold one value and a newline.
+std::string first_word_of(const std::filesystem::path& file) {
+  std::istringstream in(read_text(file.c_str()));
+  std::string word;
+  in >> word;
+  return word;
+}
+
 }  // namespace
 
 std::vector<unsigned long long> device_interrupts_per_cpu(const std::string& proc_interrupts_text) {
@@ -311,18 +320,12 @@ std::vector<MemoryMonitor> running_memory_monitors(const std::string& damon_admi
   for (fs::directory_iterator it(kdamonds, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
     if (name.empty() || name.find_first_not_of("0123456789") != std::string::npos) continue;
-    const auto first_word = [](const fs::path& file) {
-      std::istringstream in(read_text(file.c_str()));
-      std::string word;
-      in >> word;
-      return word;
-    };
-    if (first_word(it->path() / "state") != "on") continue;
+    if (first_word_of(it->path() / "state") != "on") continue;
     MemoryMonitor m;
     m.index = std::atoi(name.c_str());
     const fs::path context = it->path() / "contexts" / "0";
-    m.operations = first_word(context / "operations");
-    const std::string sample = first_word(context / "monitoring_attrs" / "intervals" / "sample_us");
+    m.operations = first_word_of(context / "operations");
+    const std::string sample = first_word_of(context / "monitoring_attrs" / "intervals" / "sample_us");
     char* rest = nullptr;
     const long long us = sample.empty() ? -1 : std::strtoll(sample.c_str(), &rest, 10);
     m.sample_us = (rest && *rest == '\0' && us >= 0) ? us : -1;
@@ -352,7 +355,7 @@ std::string memory_monitor_notice(const std::vector<MemoryMonitor>& monitors) {
       which += ")";
     }
     if (!stop.empty()) stop += "; ";
-    stop += "echo off > /sys/kernel/mm/damon/admin/kdamonds/" + std::to_string(m.index) + "/state";
+    stop += "echo off > " + std::string(kDamonAdmin) + "/kdamonds/" + std::to_string(m.index) + "/state";
   }
   return "DAMON is monitoring memory on this machine: " + which +
          ". On a 2-core virtual machine the haptic thread missed up to 0.36% of its 1 kHz deadlines while the "

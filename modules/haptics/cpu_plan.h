@@ -161,13 +161,16 @@ struct MemoryMonitor {
   long long sample_us = -1;  ///< that context's sampling interval, us (-1: unknown)
 };
 
+/// DAMON's sysfs interface, where the kernel puts it.
+inline constexpr const char* kDamonAdmin = "/sys/kernel/mm/damon/admin";
+
 /// The kdamonds whose state is "on" under `damon_admin`, DAMON's sysfs
-/// interface (/sys/kernel/mm/damon/admin); empty where there is none (no
-/// DAMON, or nothing readable). File reads: not for the haptic thread.
-std::vector<MemoryMonitor> running_memory_monitors(const std::string& damon_admin = "/sys/kernel/mm/damon/admin");
+/// interface (kDamonAdmin); empty where there is none (no DAMON, or nothing
+/// readable). File reads: not for the haptic thread.
+std::vector<MemoryMonitor> running_memory_monitors(const std::string& damon_admin = kDamonAdmin);
 
 /// What to tell the user about `monitors` ("" for none): each kdamond,
-/// what it samples and how to stop it. DAMON samples memory by clearing the
+/// what it samples and how to stop it (under kDamonAdmin). DAMON samples memory by clearing the
 /// page tables' accessed bits. On the 2-core VM of CI (a paravirtualised
 /// guest, with kdamond.0 sampling physical memory every 500 ms) the haptic
 /// thread missed 0.02 to 0.33% of its 1 kHz deadlines while llvmpipe drew
