@@ -30,6 +30,7 @@ constexpr std::uint8_t kForced = 1u << 1;
 constexpr std::uint8_t kVisited = 1u << 2;
 constexpr std::uint8_t kDirty = 1u << 3;
 constexpr std::uint8_t kChanged = 1u << 4;  // remembered for level_with (DeformableSurface::kChangedFlag)
+constexpr std::uint8_t kFresh = 1u << 5;    // in a field of the build under way (apply_fields only)
 
 // Notes that vertex i holds a dirty mark: bit (i / 64) % 64 of word i / 4096
 // of the block bitmap take_dirty_ranges walks.
@@ -405,6 +406,7 @@ __attribute__((always_inline)) inline void DeformableSurface::add_field(Index i,
                                                                         const FieldConstants& k) {
   // d = P0_i - contact point (m), r = |d|, n0 = N0_i. Force that holds
   // vertex i at the shape function's height -depth S(r).
+  touch_field(i);
   double shape = 0.0, slope = 0.0;
   c.shape.evaluate(r, k.inverse_radius, shape, slope);
   const double h = -depth * shape;
@@ -423,12 +425,6 @@ __attribute__((always_inline)) inline void DeformableSurface::add_field(Index i,
   const Vec3 t = d - d.dot(n0) * n0;
   const double len = t.norm();
   if (len > k.tiny) correction_[i] += (depth * slope / len) * t;
-
-  if (!(flags_[i] & kForced)) {
-    flags_[i] |= kForced;
-    forced_.push_back(i);
-    note_changed(i);
-  }
 }
 
 void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3* n) {
@@ -540,38 +536,11 @@ void DeformableSurface::apply_fields() {
   // and no vertex leaving a field.
   if (fields_current_) return;
   fields_current_ = true;
-  // Clear the previous step's fields, remembering which vertices had one.
+  // The previous step's fields stay until each vertex is met: the first
+  // field to reach a vertex clears it (touch_field), and the vertices no
+  // field reached are cleared after.
   prev_forced_.swap(forced_);
   forced_.clear();
-  {
-    // Raw pointers (byte stores to the flags would reload each array's
-    // address), and the lines of the vertex eight places on asked for first.
-    double* force = force_.data();
-    Vec3* correction = correction_.data();
-    std::uint8_t* flags = flags_.data();
-    Index* changed = changed_.data();
-    std::size_t changed_size = changed_size_;
-    const Index* prev = prev_forced_.data();
-    const std::size_t count = prev_forced_.size();
-    for (std::size_t k = 0; k < count; ++k) {
-      if (k + 8 < count) {
-        const Index a = prev[k + 8];
-        __builtin_prefetch(force + a, 1);
-        __builtin_prefetch(correction + a, 1);
-        __builtin_prefetch(flags + a, 1);
-      }
-      const Index i = prev[k];
-      force[i] = 0.0;
-      correction[i].setZero();
-      std::uint8_t f = static_cast<std::uint8_t>(flags[i] & ~kForced);
-      if (!(f & kChangedFlag)) {
-        f |= kChangedFlag;
-        changed[changed_size++] = i;
-      }
-      flags[i] = f;
-    }
-    changed_size_ = changed_size;
-  }
 
   // Superpose the fields of every usable contact, in contact order.
   const Index count = static_cast<Index>(mesh_->vertex_count());
@@ -598,18 +567,45 @@ void DeformableSurface::apply_fields() {
                         w[3] * drive_values_[3];
     const Material& m = integrators_[integrator_of_[i]].material;
     const double f = local_model(m.model).equilibrium_force(m, lift);
+    touch_field(i);
     force_[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
-    if (!(flags_[i] & kForced)) {
-      flags_[i] |= kForced;
-      forced_.push_back(i);
-      note_changed(i);
-    }
   }
 
-  // Vertices that left every field: their stream correction is now zero.
+  // Vertices that left every field: no force, and their stream correction
+  // is now zero.
   for (Index i : prev_forced_) {
-    if (!(flags_[i] & kForced)) write_stream(i);
+    const std::uint8_t f = flags_[i];
+    if (f & kFresh) continue;
+    force_[i] = 0.0;
+    correction_[i].setZero();
+    flags_[i] = static_cast<std::uint8_t>(f & ~kForced);
+    write_stream(i);
   }
+  // The vertices in a field: forced, and in the active set (those entering
+  // a field join it here, in the order the fields met them).
+  {
+    std::uint8_t* flags = flags_.data();
+    Index* active = active_.data();
+    std::size_t active_size = active_size_;
+    for (Index i : forced_) {
+      const std::uint8_t f = flags[i];
+      if (!(f & kActive)) active[active_size++] = i;
+      flags[i] = static_cast<std::uint8_t>((f & ~kFresh) | kForced | kActive);
+    }
+    active_size_ = active_size;
+  }
+}
+
+inline void DeformableSurface::touch_field(Index i) {
+  // The first field of this build to reach vertex i clears what the previous
+  // build left there and lists it.
+  const std::uint8_t f = flags_[i];
+  if (f & kFresh) return;
+  flags_[i] = static_cast<std::uint8_t>(f | kFresh);
+  force_[i] = 0.0;
+  correction_[i].setZero();
+  forced_.push_back(i);
+  note_changed(i);
 }
 
 double DeformableSurface::field_depth(const Contact& c) const {
@@ -737,16 +733,9 @@ struct DeformableSurface::Sweep {
 
 void DeformableSurface::step(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return;
-  prepare_step(dt);
+  prepare_step(dt);  // the vertices in a field are in the active set from here
 
-  // Vertices entering a field join the active set.
   Index* active = active_.data();
-  for (Index i : forced_) {
-    if (!(flags_[i] & kActive)) {
-      flags_[i] |= kActive;
-      active[active_size_++] = i;
-    }
-  }
   // Advance the active set, dropping the vertices that came to rest. What
   // the vertex kAhead places on reads is asked for now (no effect on
   // results): the active vertices are scattered over arrays larger than the

@@ -280,6 +280,9 @@ class DeformableSurface {
   void visit_field(const Contact& c, double depth, const Vec3* n, const FieldConstants& fc);
   void field_by_scan(const Contact& c, double depth, const Vec3& n);
   double field_depth(const Contact& c) const;
+  // The first field of a build to reach vertex i clears what the last build
+  // left there and lists it in forced_ (flag bit 5 until the build ends).
+  void touch_field(Index i);
   void write_stream(Index i);
   void mark_dirty(Index i);
   void note_changed(Index i) {
@@ -322,7 +325,7 @@ class DeformableSurface {
   bool fields_current_ = false;
   std::vector<Index> active_;         // active set: first active_size_ entries (storage for every vertex)
   std::size_t active_size_ = 0;
-  std::vector<std::uint8_t> flags_;   // bit 0: active, bit 1: forced, bit 2: visited, bit 3: dirty
+  std::vector<std::uint8_t> flags_;   // bit 0: active, 1: forced, 2: visited, 3: dirty, 4: changed, 5: fresh
   std::vector<Index> bfs_queue_;
   std::vector<float> stream_;
   std::shared_ptr<const std::vector<double>> drawn_limits_;  // per vertex, m (all +inf when unlimited)

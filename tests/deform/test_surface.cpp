@@ -353,6 +353,38 @@ TEST(Surface, ActiveSetStepEqualsFullStepOnRandomContactSequences) {
   }
 }
 
+// A step's fields (force and normal correction of every vertex) come from
+// its contacts alone: a surface that went through a long random sequence of
+// contact sets has, after each step, the fields of a new surface given only
+// that step's contacts. Fails when a field left by an earlier step, or part
+// of one, survives into a later one.
+TEST(Surface, FieldsComeFromTheCurrentContactsAlone) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(3000, R);
+  for (const bool mixed : {false, true}) {
+    const MaterialArrays mats = mixed ? mixed_materials(*m) : MaterialArrays::uniform(m->vertex_count(), Material{});
+    DeformableSurface walked(m, mats);
+    const auto frames = random_frames(*m, R, 7u, 240);
+    for (std::size_t n = 0; n < frames.size(); ++n) {
+      walked.set_contacts(frames[n]);
+      walked.step(1e-3);
+      if (n % 6 != 5) continue;
+      DeformableSurface fresh(m, mats);
+      fresh.set_contacts(frames[n]);
+      fresh.step(1e-3);
+      const std::string where = std::string(mixed ? "mixed" : "uniform") + " materials, frame " + std::to_string(n);
+      for (Index i = 0; i < m->vertex_count(); ++i) {
+        const double fa = walked.field_force(i), fb = fresh.field_force(i);
+        ASSERT_EQ(std::memcmp(&fa, &fb, sizeof fa), 0) << where << ", force of vertex " << i << ": " << fa << " N, "
+                                                       << fb << " N from the contacts alone";
+        const Vec3 ca = walked.normal_correction(i), cb = fresh.normal_correction(i);
+        ASSERT_EQ(std::memcmp(ca.data(), cb.data(), sizeof(double) * 3), 0)
+            << where << ", correction of vertex " << i;
+      }
+    }
+  }
+}
+
 // The live loop's two replicas: one steps, the other is brought level by
 // copying what changed (roles alternating); both must equal a surface that
 // made every step itself, after every step, through resets, material edits
