@@ -1048,6 +1048,18 @@ std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
   // marks made before are only cleared.
   const bool whole = all_dirty_;
   all_dirty_ = false;
+  std::uint8_t* flags = flags_.data();
+  // kDirty in each byte of a word of eight flags (byte k is vertex i + k).
+  constexpr std::uint64_t kDirtyBytes = 0x0101010101010101ull * kDirty;
+  static_assert(std::endian::native == std::endian::little, "take_dirty_ranges reads eight flags as one word");
+  // Vertices [b, e) join the ranges (they come in index order).
+  auto add = [&ranges](Index b, Index e) {
+    if (!ranges.empty() && ranges.back().end == b) {
+      ranges.back().end = e;
+    } else {
+      ranges.push_back({b, e});
+    }
+  };
 
   // The blocks of 64 vertices holding a mark, in index order (one bit each),
   // then the marks within each: sorted without sorting, in time proportional
@@ -1061,15 +1073,31 @@ std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
       const Index block = static_cast<Index>(w * 64 + static_cast<std::size_t>(std::countr_zero(bits)));
       bits &= bits - 1;
       const Index end = std::min<Index>(count, (block + 1) * 64);
-      for (Index i = block * 64; i < end; ++i) {
-        if (!(flags_[i] & kDirty)) continue;
-        flags_[i] &= static_cast<std::uint8_t>(~kDirty);
+      // The marks eight at a time: one load and one test for eight flags
+      // (the step marks most vertices of a block, in runs).
+      Index i = block * 64;
+      for (; i + 8 <= end; i += 8) {
+        std::uint64_t eight;
+        std::memcpy(&eight, flags + i, sizeof eight);
+        std::uint64_t marks = eight & kDirtyBytes;
+        if (!marks) continue;
+        eight &= ~kDirtyBytes;
+        std::memcpy(flags + i, &eight, sizeof eight);
         if (whole) continue;
-        if (!ranges.empty() && ranges.back().end == i) {
-          ranges.back().end = i + 1;
-        } else {
-          ranges.push_back({i, i + 1});
+        if (marks == kDirtyBytes) {
+          add(i, i + 8);
+          continue;
         }
+        while (marks) {
+          const Index j = i + static_cast<Index>(std::countr_zero(marks) >> 3);
+          marks &= marks - 1;
+          add(j, j + 1);
+        }
+      }
+      for (; i < end; ++i) {
+        if (!(flags[i] & kDirty)) continue;
+        flags[i] &= static_cast<std::uint8_t>(~kDirty);
+        if (!whole) add(i, i + 1);
       }
     }
   }
