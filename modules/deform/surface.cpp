@@ -392,13 +392,19 @@ struct DeformableSurface::FieldConstants {
   double tiny;            // m: 1e-12 c.shape.radius; a shorter tangent has no direction
   bool plain;             // one Linear material and no modulus scale: f = stiffness h
   double stiffness;       // N/m: that material's (when plain)
+  // The arrays the field adds to (their addresses would otherwise be read
+  // again from the surface after every byte store to the flags).
+  double* force;
+  Vec3* correction;
 
-  FieldConstants(const DeformableSurface& s, const Contact& c)
+  FieldConstants(DeformableSurface& s, const Contact& c)
       : inverse_radius(1.0 / c.shape.radius),
         tiny(1e-12 * c.shape.radius),
         plain(s.integrators_.size() == 1 && s.integrators_[0].material.model == LocalModelKind::Linear &&
               s.scale_.empty()),
-        stiffness(plain ? s.integrators_[0].material.stiffness : 0.0) {}
+        stiffness(plain ? s.integrators_[0].material.stiffness : 0.0),
+        force(s.force_.data()),
+        correction(s.correction_.data()) {}
 };
 
 __attribute__((always_inline)) inline void DeformableSurface::add_field(Index i, const Contact& c, double depth,
@@ -411,20 +417,20 @@ __attribute__((always_inline)) inline void DeformableSurface::add_field(Index i,
   c.shape.evaluate(r, k.inverse_radius, shape, slope);
   const double h = -depth * shape;
   if (k.plain) {
-    force_[i] += k.stiffness * h;  // the Linear law k h
+    k.force[i] += k.stiffness * h;  // the Linear law k h
   } else {
     const Material& m = integrators_[integrator_of_[i]].material;
     // Every model's equilibrium force is linear in its moduli, so a vertex's
     // modulus scale multiplies it.
     const double f =
         m.model == LocalModelKind::Linear ? m.stiffness * h : local_model(m.model).equilibrium_force(m, h);
-    force_[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
+    k.force[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
   }
 
   // eq. (3): depth S'(r) along the tangential direction away from the contact.
   const Vec3 t = d - d.dot(n0) * n0;
   const double len = t.norm();
-  if (len > k.tiny) correction_[i] += (depth * slope / len) * t;
+  if (len > k.tiny) k.correction[i] += (depth * slope / len) * t;
 }
 
 void DeformableSurface::field_by_bfs(const Contact& c, double depth, const Vec3* n) {
@@ -471,6 +477,8 @@ void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* 
   };
   if (bfs_queue_.size() < 64) bfs_queue_.resize(64);
   Index* queue = bfs_queue_.data();
+  std::size_t capacity = bfs_queue_.size();
+  const double min_cosine = options_.min_normal_cosine;
   std::size_t tail = 0;
   queue[tail++] = c.vertex;
   flags[c.vertex] |= kVisited;
@@ -485,13 +493,14 @@ void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* 
     if (r2 > outside2) continue;
     const double r = std::sqrt(r2);  // = d.norm(), bit for bit
     if (!(r < radius)) continue;
-    if (n && nrm[i].dot(*n) < options_.min_normal_cosine) continue;
+    if (n && nrm[i].dot(*n) < min_cosine) continue;
     add_field(i, c, depth, d, r, nrm[i], fc);
     const Index begin = offsets[i];
     const Index end = offsets[i + 1];
-    if (tail + (end - begin) > bfs_queue_.size()) {
-      bfs_queue_.resize(std::max(2 * bfs_queue_.size(), tail + (end - begin)));
+    if (tail + (end - begin) > capacity) {
+      bfs_queue_.resize(std::max(2 * capacity, tail + (end - begin)));
       queue = bfs_queue_.data();
+      capacity = bfs_queue_.size();
     }
     for (Index k = begin; k < end; ++k) {
       const Index j = items[k];
