@@ -580,15 +580,9 @@ void DeformableSurface::apply_fields() {
     force_[i] += scale_.empty() ? f : f * static_cast<double>(scale_[i]);
   }
 
-  // Vertices that left every field: no force, and their stream correction
-  // is now zero.
+  // Vertices no field of this build reached have left every field.
   for (Index i : prev_forced_) {
-    const std::uint8_t f = flags_[i];
-    if (f & kFresh) continue;
-    force_[i] = 0.0;
-    correction_[i].setZero();
-    flags_[i] = static_cast<std::uint8_t>(f & ~kForced);
-    write_stream(i);
+    if (!(flags_[i] & kFresh)) leave_fields(i);
   }
   // The vertices in a field: forced, and in the active set (those entering
   // a field join it here, in the order the fields met them).
@@ -615,6 +609,13 @@ inline void DeformableSurface::touch_field(Index i) {
   correction_[i].setZero();
   forced_.push_back(i);
   note_changed(i);
+}
+
+void DeformableSurface::leave_fields(Index i) {
+  force_[i] = 0.0;
+  correction_[i].setZero();
+  flags_[i] &= static_cast<std::uint8_t>(~kForced);
+  write_stream(i);  // its stream correction is now zero
 }
 
 double DeformableSurface::field_depth(const Contact& c) const {
@@ -912,12 +913,7 @@ void DeformableSurface::reset() {
   fields_current_ = false;
   prev_forced_.swap(forced_);
   forced_.clear();
-  for (Index i : prev_forced_) {
-    force_[i] = 0.0;
-    correction_[i].setZero();
-    flags_[i] &= static_cast<std::uint8_t>(~kForced);
-    write_stream(i);
-  }
+  for (Index i : prev_forced_) leave_fields(i);
   prev_forced_.clear();
   // Vertices outside the active set are already exactly at rest.
   for (std::size_t k = 0; k < active_size_; ++k) {

@@ -283,6 +283,9 @@ class DeformableSurface {
   // The first field of a build to reach vertex i clears what the last build
   // left there and lists it in forced_ (flag bit 5 until the build ends).
   void touch_field(Index i);
+  // Vertex i is in no field any more: no force or correction, not forced,
+  // and its stream entry rewritten.
+  void leave_fields(Index i);
   void write_stream(Index i);
   void mark_dirty(Index i);
   void note_changed(Index i) {
