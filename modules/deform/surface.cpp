@@ -5,6 +5,7 @@
 #include "deform/surface.h"
 
 #include "core/shared_by_owner.h"
+#include "deform/rest_scan.h"
 #include "mesh/thickness.h"
 
 #include <algorithm>
@@ -16,10 +17,6 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
-
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 namespace palpa::deform {
 
@@ -39,6 +36,11 @@ inline void mark_block(std::uint64_t* blocks, Index i) { blocks[i >> 12] |= std:
 bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
 bool at_rest(const VertexState& s) { return s.h == 0.0 && s.v == 0.0 && s.q == 0.0; }
+
+// The widest rest-block skip this processor runs (step_full), chosen once.
+const internal::RestScan kRestScan = internal::best_rest_scan();
+// State larger than this (bytes) is prefetched ahead of step_full's skip.
+constexpr std::size_t kPrefetchStateBytes = std::size_t{512} << 10;
 
 // The drawn height: h clamped to [-limit, limit] (limit >= 0, maybe +inf).
 inline float drawn(double h, double limit) {
@@ -774,72 +776,39 @@ void DeformableSurface::step(double dt) {
   state_.time += dt;
 }
 
-namespace {
-
-// True when the vertices [i, i + 8) have no field or active flag and an
-// all-zero state (every bit of h, v, q zero; a -0.0 is left to the exact
-// per-vertex test). One pass over the flags and the 192 bytes of state.
-inline bool block_at_rest(const std::uint8_t* flags, const VertexState* state) {
-  std::uint64_t f;
-  std::memcpy(&f, flags, sizeof f);
-  if (f & 0x0303030303030303ull) return false;  // kForced | kActive in any of the 8 bytes
-  static_assert(sizeof(VertexState) == 24 && kForced == 2 && kActive == 1);
-#if defined(__SSE2__)
-  const auto* p = reinterpret_cast<const __m128i*>(state);
-  __m128i acc = _mm_or_si128(_mm_loadu_si128(p + 0), _mm_loadu_si128(p + 1));
-  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 2), _mm_loadu_si128(p + 3)));
-  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 4), _mm_loadu_si128(p + 5)));
-  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 6), _mm_loadu_si128(p + 7)));
-  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 8), _mm_loadu_si128(p + 9)));
-  acc = _mm_or_si128(acc, _mm_or_si128(_mm_loadu_si128(p + 10), _mm_loadu_si128(p + 11)));
-  return _mm_movemask_epi8(_mm_cmpeq_epi8(acc, _mm_setzero_si128())) == 0xffff;
-#else
-  std::uint64_t acc = 0;
-  for (int k = 0; k < 8; ++k) {
-    std::uint64_t w[3];
-    std::memcpy(w, &state[k], sizeof w);
-    acc |= w[0] | w[1] | w[2];
-  }
-  return acc == 0;
-#endif
-}
-
-}  // namespace
-
 void DeformableSurface::step_full(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return;
   prepare_step(dt);
 
   // Advance every vertex; the active set becomes those not at rest or in a
   // field. A vertex exactly at rest, with no field and not active, would stay
-  // exactly at rest under every model, so it is only read: blocks of eight
-  // such vertices are skipped with one test, the others go one by one in
-  // index order (the same order and arithmetic as step()).
+  // exactly at rest under every model, so it is only read: runs of blocks
+  // of eight such vertices are passed over by internal::skip_rest_blocks
+  // (wide loads of the flags and the state), the other blocks go vertex by
+  // vertex in index order (the same order and arithmetic as step()).
   Sweep sweep(*this, dt);
   Index* active = active_.data();
   const VertexState* state = state_.vertices.data();
   const std::uint8_t* flags = flags_.data();
   std::size_t kept = 0;
-  const Index count = static_cast<Index>(mesh_->vertex_count());
+  const std::size_t count = mesh_->vertex_count();
   auto one = [&](Index i) {
     if (!(flags[i] & (kForced | kActive)) && at_rest(state[i])) return;
     if (sweep.advance(i)) active[kept++] = i;
   };
-  // The state is also asked for 256 vertices (6 KB) ahead of the test: the
-  // hardware prefetcher alone does not keep the read at memory bandwidth.
-  constexpr Index kAhead = 256;
-  Index i = 0;
-  for (; i + 8 <= count; i += 8) {
-    if (i + kAhead + 8 <= count) {
-      const char* ahead = reinterpret_cast<const char*>(state + i + kAhead);
-      __builtin_prefetch(ahead);
-      __builtin_prefetch(ahead + 64);
-      __builtin_prefetch(ahead + 128);
-    }
-    if (block_at_rest(flags + i, state + i)) continue;
-    for (Index j = i; j < i + 8; ++j) one(j);
+  // The state is also asked for 256 vertices (6 KB) ahead when it is larger
+  // than the caches: the hardware prefetcher alone does not keep the read
+  // at memory bandwidth there.
+  const bool prefetch = count * sizeof(VertexState) > kPrefetchStateBytes;
+  const std::size_t whole = count - count % internal::kRestBlock;
+  std::size_t i = 0;
+  while (i < whole) {
+    i = internal::skip_rest_blocks(kRestScan, flags, kForced | kActive, state, i, whole, prefetch);
+    if (i == whole) break;
+    for (std::size_t j = i; j < i + internal::kRestBlock; ++j) one(static_cast<Index>(j));
+    i += internal::kRestBlock;
   }
-  for (; i < count; ++i) one(i);
+  for (; i < count; ++i) one(static_cast<Index>(i));
   active_size_ = kept;
   sweep.finish(*this);
   state_.time += dt;
