@@ -648,6 +648,9 @@ struct DeformableSurface::Sweep {
   const Vec3* correction;
   const Index* integrator_of;
   const Integrator* integrators;
+  // The one Linear material's step when every vertex has it, unscaled (so
+  // the material index need not be read); null otherwise.
+  const LinearStep* plain;
   const float* scale;  // null: all 1
   const double* scale_root;  // sqrt of each scale (null with scale)
   std::uint8_t* flags;
@@ -666,6 +669,10 @@ struct DeformableSurface::Sweep {
         correction(s.correction_.data()),
         integrator_of(s.integrator_of_.data()),
         integrators(s.integrators_.data()),
+        plain(s.integrators_.size() == 1 && s.integrators_[0].material.model == LocalModelKind::Linear &&
+                      s.scale_.empty()
+                  ? &s.integrators_[0].linear
+                  : nullptr),
         scale(s.scale_.empty() ? nullptr : s.scale_.data()),
         scale_root(s.scale_.empty() ? nullptr : s.scale_root_.data()),
         flags(s.flags_.data()),
@@ -693,6 +700,10 @@ struct DeformableSurface::Sweep {
     VertexState& s = state[i];
     const bool forced = (f & kForced) != 0;
     const double fi = forced ? force[i] : 0.0;
+    if (plain) {
+      plain->apply(s, fi);
+      return write_stream(i, f, s, forced);
+    }
     const Integrator& g = integrators[integrator_of[i]];
     const float si = scale ? scale[i] : 1.0f;
     if (si != 1.0f) {
@@ -706,7 +717,12 @@ struct DeformableSurface::Sweep {
     } else {
       local_model(g.material.model).step(g.material, s, fi, dt);
     }
+    return write_stream(i, f, s, forced);
+  }
 
+  // After vertex i's integration: its stream entry, flags and place in the
+  // changed list; returns whether it stays active.
+  bool write_stream(Index i, std::uint8_t f, VertexState& s, bool forced) {
     float* p = stream + 4 * static_cast<std::size_t>(i);
     bool stays = true;
     if (forced) {
@@ -763,7 +779,7 @@ void DeformableSurface::step(double dt) {
       __builtin_prefetch(sweep.state + a, 1);
       __builtin_prefetch(sweep.force + a);
       __builtin_prefetch(sweep.correction + a);
-      __builtin_prefetch(sweep.integrator_of + a);
+      if (!sweep.plain) __builtin_prefetch(sweep.integrator_of + a);
       __builtin_prefetch(sweep.stream + 4 * static_cast<std::size_t>(a), 1);
       __builtin_prefetch(sweep.limit + a);
       if (sweep.scale_root) __builtin_prefetch(sweep.scale_root + a);

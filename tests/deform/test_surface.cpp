@@ -844,6 +844,54 @@ TEST(Surface, ResetReturnsEveryVertexToRest) {
 // ---------------------------------------------------------------------------
 // Materials, queries and bad input.
 
+// Height (m) and velocity (m/s) at time t of m h'' + b h' + k h = f from
+// rest, underdamped (the closed form; b^2 < 4 k m).
+std::pair<double, double> underdamped_from_rest(const Material& mat, double f, double t) {
+  const double w0 = std::sqrt(mat.stiffness / mat.mass);
+  const double zeta = mat.damping / (2 * std::sqrt(mat.stiffness * mat.mass));
+  const double wd = w0 * std::sqrt(1 - zeta * zeta);
+  const double decay = std::exp(-zeta * w0 * t);
+  const double h = f / mat.stiffness * (1 - decay * (std::cos(wd * t) + zeta * w0 / wd * std::sin(wd * t)));
+  const double v = f / mat.stiffness * w0 * w0 / wd * decay * std::sin(wd * t);
+  return {h, v};
+}
+
+// With two Linear materials on one surface (and with one), every vertex in
+// the field moves as its own material's oscillator under its field force.
+TEST(Surface, EachVertexStepsWithItsOwnMaterial) {
+  const MeshPtr m = plane(41, 1e-3);
+  Material heavy = linear();
+  heavy.mass = 2e-3;
+  heavy.damping = 1.5;
+  heavy.stiffness = 2000;
+  for (bool mixed : {false, true}) {
+    MaterialArrays mats = MaterialArrays::uniform(m->vertex_count(), linear());
+    DeformableSurface s(m, mats);
+    if (mixed) {
+      for (Index i = 0; i < m->vertex_count(); ++i)
+        if (m->positions[i].x() > 0) s.set_material(i, heavy);
+    }
+    const Contact c = contact_near(*m, Vec3::Zero(), 0.002, ShapeKind::Wendland, 0.01);
+    s.set_contacts({&c, 1});
+    const double dt = 1e-3;
+    int checked_heavy = 0, checked_light = 0;
+    for (int n = 1; n <= 5; ++n) {
+      s.step(dt);
+      for (Index i = 0; i < m->vertex_count(); ++i) {
+        const double f = s.field_force(i);
+        if (f == 0) continue;
+        const bool is_heavy = mixed && m->positions[i].x() > 0;
+        const auto [h, v] = underdamped_from_rest(is_heavy ? heavy : linear(), f, n * dt);
+        ASSERT_NEAR(s.state().vertices[i].h, h, 1e-12 * std::abs(f / 500) + 1e-15) << "vertex " << i << ", step " << n;
+        ASSERT_NEAR(s.state().vertices[i].v, v, 1e-9 * std::abs(f / 500) + 1e-15) << "vertex " << i << ", step " << n;
+        ++(is_heavy ? checked_heavy : checked_light);
+      }
+    }
+    EXPECT_GT(checked_light, 100);
+    if (mixed) EXPECT_GT(checked_heavy, 100);
+  }
+}
+
 TEST(Surface, MaterialChangesTakeEffectAtTheNextStep) {
   const MeshPtr m = plane(41, 1e-3);
   DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
