@@ -18,6 +18,10 @@
 #include <string>
 #include <utility>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace palpa::deform {
 
 namespace {
@@ -42,10 +46,10 @@ const internal::RestScan kRestScan = internal::best_rest_scan();
 // State larger than this (bytes) is prefetched ahead of step_full's skip.
 constexpr std::size_t kPrefetchStateBytes = std::size_t{512} << 10;
 
-// The drawn height: h clamped to [-limit, limit] (limit >= 0, maybe +inf).
-inline float drawn(double h, double limit) {
-  return static_cast<float>(h < -limit ? -limit : (h > limit ? limit : h));
-}
+// The drawn height: h clamped to [-limit, limit] (limit >= 0, maybe +inf),
+// before and after its conversion to float.
+inline double drawn_double(double h, double limit) { return h < -limit ? -limit : (h > limit ? limit : h); }
+inline float drawn(double h, double limit) { return static_cast<float>(drawn_double(h, limit)); }
 
 // A contact that can shape a field: finite, non-zero depth, a positive radius.
 bool usable(const Contact& c) {
@@ -728,6 +732,18 @@ struct DeformableSurface::Sweep {
     if (forced) {
       // In a field: correction and height may both have changed.
       const Vec3& c = correction[i];
+#if defined(__SSE2__)
+      // The same conversions and comparisons, four lanes at once: (nx, ny,
+      // nz, h) as floats, rewritten when any lane differs (!=, as below).
+      const double hd = drawn_double(s.h, limit[i]);
+      const __m128 xy = _mm_cvtpd_ps(_mm_loadu_pd(c.data()));
+      const __m128 zh = _mm_cvtpd_ps(_mm_set_pd(hd, c.z()));
+      const __m128 v = _mm_movelh_ps(xy, zh);
+      if (_mm_movemask_ps(_mm_cmpneq_ps(_mm_loadu_ps(p), v)) != 0) {
+        _mm_storeu_ps(p, v);
+        mark(i, f);
+      }
+#else
       const float nx = static_cast<float>(c.x()), ny = static_cast<float>(c.y()), nz = static_cast<float>(c.z());
       const float h = drawn(s.h, limit[i]);
       if (p[0] != nx || p[1] != ny || p[2] != nz || p[3] != h) {
@@ -737,6 +753,7 @@ struct DeformableSurface::Sweep {
         p[3] = h;
         mark(i, f);
       }
+#endif
     } else {
       // No field (its stream correction is already zero). A vertex that has
       // (nearly) stopped is set exactly to rest and leaves the active set.
