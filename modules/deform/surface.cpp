@@ -833,11 +833,19 @@ void DeformableSurface::step_full(double dt) {
   // than the caches: the hardware prefetcher alone does not keep the read
   // at memory bandwidth there.
   const bool prefetch = count * sizeof(VertexState) > kPrefetchStateBytes;
+  constexpr std::uint64_t kMovingWord = 0x0101010101010101ull * (kForced | kActive);
   const std::size_t whole = count - count % internal::kRestBlock;
   std::size_t i = 0;
   while (i < whole) {
-    i = internal::skip_rest_blocks(kRestScan, flags, kForced | kActive, state, i, whole, prefetch);
-    if (i == whole) break;
+    // A block with a vertex in a field or active goes straight to the
+    // vertices (most blocks of a field are followed by more of it); the
+    // skip is asked only from a block whose flags say it may be at rest.
+    std::uint64_t f;
+    std::memcpy(&f, flags + i, sizeof f);
+    if (!(f & kMovingWord)) {
+      i = internal::skip_rest_blocks(kRestScan, flags, kForced | kActive, state, i, whole, prefetch);
+      if (i == whole) break;
+    }
     for (std::size_t j = i; j < i + internal::kRestBlock; ++j) one(static_cast<Index>(j));
     i += internal::kRestBlock;
   }
