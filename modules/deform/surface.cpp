@@ -390,6 +390,12 @@ void DeformableSurface::set_contacts(std::span<const Contact> contacts) {
 // ---------------------------------------------------------------------------
 // Force fields (section III.B) and normal corrections (eq. 3).
 
+const DeformableSurface::Integrator* DeformableSurface::plain_linear() const {
+  return integrators_.size() == 1 && integrators_[0].material.model == LocalModelKind::Linear && scale_.empty()
+             ? &integrators_[0]
+             : nullptr;
+}
+
 // What every vertex of one contact's field shares, computed once per field
 // (the loops' stores could alias the members it is read from, so the
 // compiler would read them again for every vertex).
@@ -406,9 +412,8 @@ struct DeformableSurface::FieldConstants {
   FieldConstants(DeformableSurface& s, const Contact& c)
       : inverse_radius(1.0 / c.shape.radius),
         tiny(1e-12 * c.shape.radius),
-        plain(s.integrators_.size() == 1 && s.integrators_[0].material.model == LocalModelKind::Linear &&
-              s.scale_.empty()),
-        stiffness(plain ? s.integrators_[0].material.stiffness : 0.0),
+        plain(s.plain_linear() != nullptr),
+        stiffness(plain ? s.plain_linear()->material.stiffness : 0.0),
         force(s.force_.data()),
         correction(s.correction_.data()) {}
 };
@@ -673,10 +678,7 @@ struct DeformableSurface::Sweep {
         correction(s.correction_.data()),
         integrator_of(s.integrator_of_.data()),
         integrators(s.integrators_.data()),
-        plain(s.integrators_.size() == 1 && s.integrators_[0].material.model == LocalModelKind::Linear &&
-                      s.scale_.empty()
-                  ? &s.integrators_[0].linear
-                  : nullptr),
+        plain(s.plain_linear() ? &s.plain_linear()->linear : nullptr),
         scale(s.scale_.empty() ? nullptr : s.scale_.data()),
         scale_root(s.scale_.empty() ? nullptr : s.scale_root_.data()),
         flags(s.flags_.data()),
@@ -706,7 +708,7 @@ struct DeformableSurface::Sweep {
     const double fi = forced ? force[i] : 0.0;
     if (plain) {
       plain->apply(s, fi);
-      return write_stream(i, f, s, forced);
+      return record(i, f, s, forced);
     }
     const Integrator& g = integrators[integrator_of[i]];
     const float si = scale ? scale[i] : 1.0f;
@@ -721,12 +723,12 @@ struct DeformableSurface::Sweep {
     } else {
       local_model(g.material.model).step(g.material, s, fi, dt);
     }
-    return write_stream(i, f, s, forced);
+    return record(i, f, s, forced);
   }
 
   // After vertex i's integration: its stream entry, flags and place in the
   // changed list; returns whether it stays active.
-  bool write_stream(Index i, std::uint8_t f, VertexState& s, bool forced) {
+  bool record(Index i, std::uint8_t f, VertexState& s, bool forced) {
     float* p = stream + 4 * static_cast<std::size_t>(i);
     bool stays = true;
     if (forced) {

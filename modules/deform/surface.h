@@ -269,6 +269,10 @@ class DeformableSurface {
   };
 
   struct Sweep;  // the per-vertex update shared by step() and step_full()
+  // The surface's only material when it is Linear and no modulus scale is
+  // set (every vertex then has f = stiffness h and the same step); null
+  // otherwise.
+  const Integrator* plain_linear() const;
 
   void prepare_step(double dt);
   void apply_fields();

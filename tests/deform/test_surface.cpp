@@ -888,7 +888,9 @@ TEST(Surface, EachVertexStepsWithItsOwnMaterial) {
       }
     }
     EXPECT_GT(checked_light, 100);
-    if (mixed) EXPECT_GT(checked_heavy, 100);
+    if (mixed) {
+      EXPECT_GT(checked_heavy, 100);
+    }
   }
 }
 
