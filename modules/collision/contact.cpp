@@ -397,13 +397,16 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
   // straight back, which a walk started on the last triangle takes once and
   // then stops at as this one did); no after a jump or out of steps (a new
   // walk has more).
-  auto end = [&](const SurfacePoint& sp, bool repeats) {
-    if (trace) trace->repeatable = repeats;
+  auto end = [&](const SurfacePoint& sp, bool repeats, WalkEnd why) {
+    if (trace) {
+      trace->repeatable = repeats;
+      trace->end = why;
+    }
     return sp;
   };
   if (start >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
       mesh.vertex_triangles.rows() != mesh.vertex_count() || !probe.allFinite())
-    return none;
+    return end(none, false, WalkEnd::BadInput);
   const bool neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
   Index t = start, previous = kNoIndex;
   // Steps: kMaxWalkSteps in all, except those that turn around a vertex of
@@ -418,35 +421,36 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
     // Jump test on the start triangle: moved farther than its longest edge.
     if (first && max_move_from) {
       const double longest_sq = std::max({f.a11, f.a22, f.e3_sq});
-      if (!((probe - *max_move_from).squaredNorm() <= longest_sq)) return end(none, false);
+      if (!((probe - *max_move_from).squaredNorm() <= longest_sq)) return end(none, false, WalkEnd::Jump);
     }
     Vec3 b;
-    if (!solve_interpolated_normal(f, probe, b)) return end(none, true);
+    if (!solve_interpolated_normal(f, probe, b)) return end(none, true, WalkEnd::Unsolved);
     if (b.minCoeff() >= -kInsideTolerance) {
       // Inside: the same weights and virtual vertex as locate_surface_point's.
       b = clamped_inside(b);
       SurfacePoint sp = finish(f.p, f.n, t, b, probe, true);
       // Still below the surface (a probe that left is for the tree to place),
       // and within half the focal distance: 4 offset^2 |dn|^2 <= |dp|^2 on every edge.
-      if (!(sp.offset < 0)) return end(none, true);
+      if (!(sp.offset < 0)) return end(none, true, WalkEnd::Above);
       const double o2 = 4 * sp.offset * sp.offset;
       if (!(o2 * f.f1_sq <= f.a11 && o2 * f.f2_sq <= f.a22 && o2 * f.f3_sq <= f.e3_sq))
-        return end(none, true);
+        return end(none, true, WalkEnd::TooDeep);
       // The triangle's vertex nearest to the probe.
       const Vec3 d = probe - f.p0;
       const double d0 = d.squaredNorm(), d1 = (d - f.e1).squaredNorm(), d2 = (d - f.e2).squaredNorm();
       nearest_vertex = d0 <= d1 && d0 <= d2 ? f.corners[0] : (d1 <= d2 ? f.corners[1] : f.corners[2]);
-      return end(sp, true);
+      return end(sp, true, WalkEnd::Answer);
     }
     // Outside: step across the edge opposite the most negative weight; a
     // step straight back means the solution sits in no triangle here.
     const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
     const Index c1 = f.corners[(k + 1) % 3], c2 = f.corners[(k + 2) % 3];
     const Index next = neighbors ? mesh.triangle_neighbors[t][k] : across_edge(mesh, t, c1, c2);
-    if (next == kNoIndex || next == previous) return end(none, true);
+    if (next == kNoIndex) return end(none, true, WalkEnd::Border);
+    if (next == previous) return end(none, true, WalkEnd::SteppedBack);
     const Index pivot = c1 == edge_a || c1 == edge_b ? c1 : (c2 == edge_a || c2 == edge_b ? c2 : kNoIndex);
     const bool fan = pivot != kNoIndex && mesh.vertex_triangles.row(pivot).size() > kFanValence;
-    if (fan ? ++fan_steps > kMaxFanSteps : ++steps >= kMaxWalkSteps) return end(none, false);
+    if (fan ? ++fan_steps > kMaxFanSteps : ++steps >= kMaxWalkSteps) return end(none, false, WalkEnd::OutOfSteps);
     edge_a = c1;
     edge_b = c2;
     previous = t;

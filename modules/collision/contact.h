@@ -65,6 +65,21 @@ inline constexpr int kMaxFanSteps = 64;
 /// picks by the nearest vertex, so the two may differ there. No allocation.
 SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle);
 
+/// Why an in-contact walk stopped. Every decline of the walk is one of
+/// these, so a caller (or a benchmark) can say why a query fell back to the
+/// tree.
+enum class WalkEnd : unsigned char {
+  Answer = 0,       ///< ended inside a triangle, below the surface, within half the focal distance
+  BadInput = 1,     ///< bad start triangle, probe or mesh tables: nothing walked
+  Jump = 2,         ///< the probe moved farther than the start triangle's longest edge (query_contact's test)
+  Unsolved = 3,     ///< the interpolated-normal equation had no usable solution on a triangle (degenerate)
+  Above = 4,        ///< inside a triangle, but the probe is above the undeformed surface (offset >= 0)
+  TooDeep = 5,      ///< inside a triangle, but deeper than half the focal distance there
+  Border = 6,       ///< the step crossed a border or non-manifold edge
+  SteppedBack = 7,  ///< the step went straight back: the solution lies in no triangle here
+  OutOfSteps = 8,   ///< kMaxWalkSteps (or kMaxFanSteps round a high-valence vertex) used up
+};
+
 /// The triangles an in-contact walk visited, in order, and from which of
 /// them a walk started afresh, with the same probe, ends as this one did.
 /// Each step of the walk depends only on the triangle it is on and the
@@ -84,6 +99,8 @@ struct WalkTrace {
   /// same probe and no jump test, gives the same answer (the same bits, or
   /// no answer); false after a jump test or out of steps.
   bool repeatable = false;
+  /// Why the walk stopped (Answer when it answered).
+  WalkEnd end = WalkEnd::BadInput;
 
   /// True when a walk from `t` would repeat this one's answer.
   bool repeats_from(Index t) const {

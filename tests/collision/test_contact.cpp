@@ -627,6 +627,49 @@ TEST(ContactWalk, DeclinesAboveTheSurfaceBeyondTheBorderAndPastHalfTheFocalDista
   }
 }
 
+// Each way a walk stops is reported in its trace (WalkTrace::end), in
+// situations whose outcome follows from the geometry alone.
+TEST(ContactWalk, ItsTraceSaysWhyItStopped) {
+  auto why = [](const mesh::SurfaceMesh& m, const Vec3& probe, Index start) {
+    WalkTrace trace;
+    const SurfacePoint sp = walk_surface_point(m, probe, start, trace);
+    // An answer, and only an answer, says Answer.
+    EXPECT_EQ(sp.triangle != kNoIndex, trace.end == WalkEnd::Answer);
+    return trace.end;
+  };
+  // A flat grid of 1 mm squares, 40 mm across (x and y from -0.02 to 0.02).
+  const auto plane = mesh::make_plane(41, 41, 0.001);
+  const Vec3 below(-0.0095, 0.0002, -0.001);
+  const Index under = full_query(plane, below).triangle;
+  ASSERT_NE(under, kNoIndex);
+  EXPECT_EQ(why(plane, below, under), WalkEnd::Answer);
+  EXPECT_EQ(why(plane, Vec3(-0.0095, 0.0002, 0.001), under), WalkEnd::Above);
+  EXPECT_EQ(why(plane, below, kNoIndex), WalkEnd::BadInput);
+  EXPECT_EQ(why(plane, Vec3(-0.0095, 0.0002, std::nan("")), under), WalkEnd::BadInput);
+  // Past the border x = 0.02, next to the triangle under the probe's foot
+  // on the border: the step out of the grid finds no triangle.
+  const Index edge = full_query(plane, Vec3(0.0195, 0.0002, -0.001)).triangle;
+  ASSERT_NE(edge, kNoIndex);
+  EXPECT_EQ(why(plane, Vec3(0.0215, 0.0002, -0.001), edge), WalkEnd::Border);
+  // 20 mm away, twenty squares: far more triangles than kMaxWalkSteps.
+  EXPECT_EQ(why(plane, Vec3(0.0105, 0.0002, -0.001), under), WalkEnd::OutOfSteps);
+
+  // A sphere with radial normals: the focal distance is R, so the walk
+  // answers down to R / 2 deep and says TooDeep below (as the test above).
+  const double radius = 0.05;
+  auto m = test::radial_sphere(5000, radius);
+  std::mt19937 rng(17);
+  std::normal_distribution<double> g;
+  for (int i = 0; i < 20; ++i) {
+    const Vec3 dir = Vec3(g(rng), g(rng), g(rng)).normalized();
+    const SurfacePoint start = full_query(m, dir * radius * 0.99);
+    ASSERT_TRUE(start.inside);
+    const double c = start.point.norm();
+    EXPECT_EQ(why(m, dir * (c - 0.49 * radius), start.triangle), WalkEnd::Answer) << i;
+    EXPECT_EQ(why(m, dir * (c - 0.51 * radius), start.triangle), WalkEnd::TooDeep) << i;
+  }
+}
+
 // ---------------------------------------------------------------------------
 // The walk's trace: a walk started afresh on a later triangle of the trace,
 // with the same probe, must give the same bits (or no answer) wherever the
