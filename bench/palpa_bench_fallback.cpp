@@ -1,0 +1,88 @@
+// palpa-bench's account of the contact query's tree path (see
+// palpa_bench_fallback.h).
+
+#include "palpa_bench_fallback.h"
+
+#include "collision/contact.h"
+
+namespace palpa::bench {
+
+const char* walk_end_name(std::size_t end) {
+  switch (static_cast<collision::WalkEnd>(end)) {
+    case collision::WalkEnd::Answer: return "answer";
+    case collision::WalkEnd::BadInput: return "bad input";
+    case collision::WalkEnd::Jump: return "jump";
+    case collision::WalkEnd::Unsolved: return "unsolved";
+    case collision::WalkEnd::Above: return "above";
+    case collision::WalkEnd::TooDeep: return "too deep";
+    case collision::WalkEnd::Border: return "border";
+    case collision::WalkEnd::SteppedBack: return "stepped back";
+    case collision::WalkEnd::OutOfSteps: return "out of steps";
+  }
+  return "?";
+}
+
+TreePathSplit split_tree_path(const mesh::SurfaceMesh& mesh, const collision::VertexTree& tree,
+                              const ProbePaths& paths, int probes, std::size_t warm_begin, std::size_t timed_begin,
+                              const std::vector<double>& local_ns) {
+  TreePathSplit s;
+  std::vector<collision::ContactCursor> cursors(static_cast<std::size_t>(probes));
+  std::vector<char> touching(static_cast<std::size_t>(probes), 0);
+  std::vector<double> walk_ns, tree_ns, nearest_ns, ring_ns, wide_ns;
+  std::size_t i = 0;  // timed query
+  for (std::size_t k = warm_begin; k < paths.ticks; ++k) {
+    for (int p = 0; p < probes; ++p) {
+      const Vec3& q = paths.at(k, p);
+      collision::ContactCursor& cursor = cursors[static_cast<std::size_t>(p)];
+      const bool in_contact = touching[static_cast<std::size_t>(p)] != 0;
+      const collision::ContactCursor before = cursor;
+      const collision::ContactAnswer ca = collision::query_contact(mesh, tree, q, cursor, in_contact);
+      touching[static_cast<std::size_t>(p)] = ca.surface.triangle != kNoIndex && ca.surface.offset < 0;
+      if (k < timed_begin) continue;
+      const double ns = i < local_ns.size() ? local_ns[i] : 0.0;
+      ++i;
+      ++s.queries;
+      if (ca.path == collision::ContactPath::Walk) {
+        ++s.walk;
+        walk_ns.push_back(ns);
+        continue;
+      }
+      if (ca.path != collision::ContactPath::Tree) continue;
+      ++s.tree;
+      tree_ns.push_back(ns);
+      if (in_contact && before.triangle < mesh.triangle_count()) {
+        ++s.tree_in_contact;
+        collision::WalkTrace trace;
+        collision::walk_surface_point(mesh, q, before.triangle, trace);
+        // A walk that answers here was declined by query_contact's jump test.
+        const collision::WalkEnd end =
+            trace.end == collision::WalkEnd::Answer ? collision::WalkEnd::Jump : trace.end;
+        ++s.declines[static_cast<std::size_t>(end)];
+      }
+      // The two parts again, from the cursor the query started with.
+      collision::SearchCursor search = before.tree;
+      const auto t0 = Clock::now();
+      const collision::NearestVertex nv = tree.nearest_local(q, search);
+      const auto t1 = Clock::now();
+      const collision::SurfacePoint sp = collision::locate_surface_point(mesh, q, nv.vertex);
+      const auto t2 = Clock::now();
+      nearest_ns.push_back(elapsed_ns(t0, t1));
+      // The one ring held the foot when the answer is inside a triangle with
+      // the nearest vertex as a corner; otherwise the search widened.
+      bool ring = false;
+      if (sp.inside && sp.triangle < mesh.triangle_count()) {
+        const mesh::Triangle& tri = mesh.triangles[sp.triangle];
+        ring = tri[0] == nv.vertex || tri[1] == nv.vertex || tri[2] == nv.vertex;
+      }
+      (ring ? ring_ns : wide_ns).push_back(elapsed_ns(t1, t2));
+    }
+  }
+  s.walk_query = latency_of(walk_ns);
+  s.tree_query = latency_of(tree_ns);
+  s.nearest = latency_of(nearest_ns);
+  s.locate_ring = latency_of(ring_ns);
+  s.locate_wide = latency_of(wide_ns);
+  return s;
+}
+
+}  // namespace palpa::bench
