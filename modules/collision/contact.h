@@ -75,7 +75,7 @@ enum class WalkEnd : unsigned char {
   Unsolved = 3,     ///< the interpolated-normal equation had no usable solution on a triangle (degenerate)
   Above = 4,        ///< inside a triangle, but the probe is above the undeformed surface (offset >= 0)
   TooDeep = 5,      ///< inside a triangle, but deeper than half the focal distance there
-  Border = 6,       ///< the step crossed a border or non-manifold edge
+  Border = 6,       ///< no triangle across the edge to step over: a border or non-manifold edge
   SteppedBack = 7,  ///< the step went straight back: the solution lies in no triangle here
   OutOfSteps = 8,   ///< kMaxWalkSteps (or kMaxFanSteps round a high-valence vertex) used up
 };
