@@ -508,10 +508,9 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
 
 // The last tick's haptic_tick again, from copies of the memories it left:
 // same reads, nothing kept.
-void LoopCore::warm_caches(const deform::DeformableSurface& surface, bool after_step) noexcept {
+void LoopCore::warm_caches(const deform::DeformableSurface& surface) noexcept {
   const std::size_t dense = last_dense_;
-  for (std::size_t d = 0; d < dense; ++d)
-    warm_memory_[d] = memory_for_warm_up(state_.memory[slot_of_[d]], after_step);
+  for (std::size_t d = 0; d < dense; ++d) warm_memory_[d] = memory_for_warm_up(state_.memory[slot_of_[d]]);
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
               std::span<ProbeMemory>(warm_memory_.data(), dense), std::span<ProbeOutput>(warm_outputs_.data(), dense),
               state_.force, state_.shape, last_tissue_ ? &tissue_tick_ : nullptr);

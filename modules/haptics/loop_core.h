@@ -322,12 +322,9 @@ class LoopCore {
   /// CPU. A probe the last tick found hovering clear of the surface
   /// (collision::ContactPath::Clear, no search) is asked of the tree here,
   /// so that the tree's path is in the cache on the tick the probe leaves
-  /// its clearance. `after_step`: the caller has just run a deformation
-  /// step on this thread, and the ring each probe in contact fetches ahead
-  /// (ProbeMemory::ring_vertex) is fetched again whole
-  /// (memory_for_warm_up). Costs about one
+  /// its clearance. Costs about one
   /// tick (microseconds); no allocation, no lock.
-  void warm_caches(const deform::DeformableSurface& surface, bool after_step = false) noexcept;
+  void warm_caches(const deform::DeformableSurface& surface) noexcept;
   /// What the last warm_caches found for each probe of the last tick, in
   /// the order of its dense probes (for tests).
   std::span<const ProbeOutput> last_warm() const noexcept {

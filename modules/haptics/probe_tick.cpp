@@ -139,47 +139,21 @@ void fetch_step_vertex(const deform::DeformableSurface& surface, const mesh::Sur
   surface.prefetch_vertex(v);
 }
 
-// Stages 1 and 2 of fetching vertex v's ring (see fetch_ring_ahead): the
-// triangles round v (but the probe's own) with their rows of neighbours,
-// then the data of v's neighbours.
-void fetch_ring_triangles(const mesh::SurfaceMesh& mesh, Index v, const ProbeMemory& memory) {
-  for (Index t : mesh.vertex_triangles.row(v))
-    if (t != memory.cursor.triangle && t < mesh.triangle_count()) {
-      __builtin_prefetch(&mesh.triangles[t]);
-      __builtin_prefetch(&mesh.triangle_neighbors[t]);
-    }
-}
-
-void fetch_ring_vertices(const deform::DeformableSurface& surface, const mesh::SurfaceMesh& mesh, Index v,
-                         const ProbeMemory& memory) {
-  for (Index w : mesh.vertex_neighbors.row(v)) fetch_step_vertex(surface, mesh, w, memory.corners);
-}
-
 // One stage of fetching the ring of the vertex the probe is nearest (see
 // ProbeMemory::ring_vertex): the walk steps round that vertex when the probe
 // passes near it, into triangles beyond the one ahead; without this, each
 // such step waited on memory for the triangle, its far corner and its
 // neighbours in turn. Each stage reads only lines the stage before asked for
-// (a tick earlier), so no stage waits on memory itself. A warm-up's memory
-// (kRingFetchAtOnce) takes every stage at once instead, each waiting on the
-// one before. No effect on results.
+// (a tick earlier), so no stage waits on memory itself. No effect on results.
 void fetch_ring_ahead(const deform::DeformableSurface& surface, const mesh::SurfaceMesh& mesh, ProbeMemory& memory) {
   const Vec3& b = memory.cursor.barycentric;
   const Index v = memory.corners[b[0] >= b[1] && b[0] >= b[2] ? 0 : (b[1] >= b[2] ? 1 : 2)];
-  const bool at_once = memory.ring_stage == kRingFetchAtOnce;
-  if (!at_once && v == memory.ring_vertex && memory.ring_stage >= 3) return;  // fetched: most ticks
+  if (v == memory.ring_vertex && memory.ring_stage >= 3) return;  // fetched: most ticks
   const mesh::Csr& triangles_of = mesh.vertex_triangles;
   const mesh::Csr& ring_of = mesh.vertex_neighbors;
   if (v >= mesh.vertex_count() || triangles_of.rows() != mesh.vertex_count() || ring_of.rows() != mesh.vertex_count() ||
       mesh.triangle_neighbors.size() != mesh.triangle_count())
     return;
-  if (at_once) {
-    fetch_ring_triangles(mesh, v, memory);
-    fetch_ring_vertices(surface, mesh, v, memory);
-    memory.ring_vertex = v;
-    memory.ring_stage = 3;
-    return;
-  }
   if (v != memory.ring_vertex) {
     memory.ring_vertex = v;
     memory.ring_stage = 0;
@@ -193,10 +167,14 @@ void fetch_ring_ahead(const deform::DeformableSurface& surface, const mesh::Surf
       __builtin_prefetch(ring_of.items.data() + ring_of.offsets[v]);
       break;
     case 1:
-      fetch_ring_triangles(mesh, v, memory);
+      for (Index t : triangles_of.row(v))
+        if (t != memory.cursor.triangle && t < mesh.triangle_count()) {
+          __builtin_prefetch(&mesh.triangles[t]);
+          __builtin_prefetch(&mesh.triangle_neighbors[t]);
+        }
       break;
     case 2:
-      fetch_ring_vertices(surface, mesh, v, memory);
+      for (Index w : ring_of.row(v)) fetch_step_vertex(surface, mesh, w, memory.corners);
       break;
     default:
       return;

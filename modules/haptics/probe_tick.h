@@ -70,19 +70,10 @@ struct ProbeMemory {
   /// two or three triangles round it in one tick), and how far that fetch has
   /// got: 0 its rows' offsets asked for, 1 the rows, 2 the ring's triangles,
   /// 3 its vertices' data. One stage per tick, each reading only what the
-  /// stage before asked for; kRingFetchAtOnce: every stage in the next tick
-  /// (a warm-up after a step, whose loads may wait on memory). Where data is
-  /// fetched only: no effect on results.
+  /// stage before asked for. Where data is fetched only: no effect on results.
   Index ring_vertex = kNoIndex;
   std::uint8_t ring_stage = 0;
 };
-
-/// ProbeMemory::ring_stage of a warm-up that follows a deformation step on
-/// the tick's own thread: the ring is fetched whole in one tick, whatever
-/// the stage the probe's own memory has reached. On a large mesh the step
-/// streams more than the L2 through that thread's cache, so the ring the
-/// ticks fetched before it is gone after it.
-inline constexpr std::uint8_t kRingFetchAtOnce = 0xFF;
 
 /// The memory a warm-up runs the last tick again with (into scratch, as
 /// LoopCore::warm_caches does): `m`, except that a probe the tick answered
@@ -90,16 +81,9 @@ inline constexpr std::uint8_t kRingFetchAtOnce = 0xFF;
 /// collision::ContactPath::Clear) is asked of the tree, so that the tree's
 /// path is in the cache on the tick the probe leaves its clearance (tens of
 /// microseconds on a 1M-vertex organ otherwise, against about one warm).
-/// With `whole_ring` (a warm-up right after a deformation step on the same
-/// thread), the ring of the corner the probe is nearest is also fetched
-/// whole in that tick (kRingFetchAtOnce). Not for the haptic thread's warm-ups
-/// during its spin: there the step runs on another CPU, the ring stays in
-/// this one's cache, and fetching it at every warm-up made the tick slower
-/// (issue 8, round 21).
-inline ProbeMemory memory_for_warm_up(const ProbeMemory& m, bool whole_ring = false) {
+inline ProbeMemory memory_for_warm_up(const ProbeMemory& m) {
   ProbeMemory w = m;
   w.cursor.clearance = 0;
-  if (whole_ring) w.ring_stage = kRingFetchAtOnce;
   return w;
 }
 

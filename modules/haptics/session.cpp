@@ -159,9 +159,8 @@ void Session::deform(const DeformRequest& r) {
   apply_deform_request(*surface_, r, scratch_, surface_field_);
   // The step streamed the contacts' patches (megabytes at 1M vertices)
   // through this thread's cache; the next tick would pay for it (issue 8,
-  // target 3: its p99 was about twice the other ticks'), and pushed out
-  // the rings the ticks had fetched ahead, which the warm-up fetches again.
-  core_->warm_caches(*surface_, true);
+  // target 3: its p99 was about twice the other ticks').
+  core_->warm_caches(*surface_);
   note_edits(r.edits);
   generation_ = r.generation;
   model_time_ = r.time;

@@ -488,48 +488,6 @@ TEST(HapticTick, TheRingOfTheNearestCornerIsFetchedOneStageATick) {
   EXPECT_EQ(memory.ring_stage, 200);
 }
 
-TEST(HapticTick, AWarmUpFetchesTheWholeRingInOneTick) {
-  // The memory of a warm-up after a step (memory_for_warm_up with
-  // whole_ring) fetches the ring of the nearest corner in one tick, whatever
-  // stage the probe's own memory had reached (the step may have pushed that
-  // ring out of the cache); a warm-up without it fetches as the tick would.
-  // The force is the tick's own either way.
-  const SphereScene scene(linear(400));
-  const mesh::SurfaceMesh& m = *scene.mesh;
-  const Index v = static_cast<Index>(m.vertex_count() / 3);
-  const ProbeInput in{m.positions[v] * (1 - 0.001 / kRadius), Vec3::Zero()};
-  ProbeMemory memory;
-  ProbeOutput out;
-  auto tick = [&](ProbeMemory& mem, ProbeOutput& o) {
-    haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&mem, 1), std::span(&o, 1),
-                ForceParams{}, deform::ShapeFunction{});
-  };
-  for (std::uint8_t stage : {std::uint8_t{0}, std::uint8_t{1}, std::uint8_t{3}}) {
-    // Ticks until the probe's own memory is at `stage` of v's ring.
-    memory = ProbeMemory{};
-    tick(memory, out);
-    do tick(memory, out);
-    while (memory.ring_stage != stage);
-    ASSERT_EQ(memory.ring_vertex, v);
-    ProbeMemory staged = memory_for_warm_up(memory);
-    EXPECT_EQ(staged.ring_stage, stage);
-    ProbeOutput staged_out;
-    tick(staged, staged_out);
-    EXPECT_EQ(staged.ring_stage, std::min(stage + 1, 3)) << int(stage);
-    ProbeMemory warm = memory_for_warm_up(memory, true);
-    EXPECT_EQ(warm.ring_stage, kRingFetchAtOnce);
-    ProbeOutput warm_out;
-    tick(warm, warm_out);
-    EXPECT_EQ(warm.ring_vertex, v) << int(stage);
-    EXPECT_EQ(warm.ring_stage, 3) << int(stage);
-    EXPECT_EQ(staged_out.force, warm_out.force) << int(stage);
-    // The warm-up's force is the tick's own (the same memory but the fetch).
-    ProbeOutput own;
-    tick(memory, own);
-    EXPECT_EQ(warm_out.force, own.force) << int(stage);
-  }
-}
-
 TEST(HapticTick, DoesNotAllocate) {
   // Several probes in and out of contact, over many ticks: no heap allocation.
   const SphereScene scene(linear(400));
