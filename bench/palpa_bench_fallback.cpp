@@ -3,8 +3,6 @@
 
 #include "palpa_bench_fallback.h"
 
-#include "collision/contact.h"
-
 namespace palpa::bench {
 
 const char* walk_end_name(std::size_t end) {

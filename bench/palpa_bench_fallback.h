@@ -6,6 +6,7 @@
 // declines on more than 1% of the queries that p99 falls among the tree
 // path's queries: this says which decline it is and which part is slow.
 
+#include "collision/contact.h"
 #include "collision/vertex_tree.h"
 #include "mesh/surface_mesh.h"
 #include "palpa_bench_path.h"
@@ -22,9 +23,10 @@ struct TreePathSplit {
   std::size_t walk = 0;          ///< answered by the walk
   std::size_t tree = 0;          ///< answered on the tree path
   std::size_t tree_in_contact = 0;  ///< of those, after a walk that declined (the probe was in contact)
-  /// Of tree_in_contact, how many per collision::WalkEnd (index = its value;
-  /// Answer counts the walks query_contact declined for its jump test).
-  std::array<std::size_t, 9> declines{};
+  /// Of tree_in_contact, how many per collision::WalkEnd (index = its
+  /// value, one slot per value up to OutOfSteps). A walk that would have
+  /// answered counts as Jump: only query_contact's jump test declines it.
+  std::array<std::size_t, static_cast<std::size_t>(collision::WalkEnd::OutOfSteps) + 1> declines{};
   Latency walk_query;     ///< the timed query's latency (us) on the walk's queries
   Latency tree_query;     ///< the same on the tree path's queries
   /// The tree path's parts, run again right after the query (caches warm):
