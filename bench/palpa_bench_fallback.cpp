@@ -3,6 +3,9 @@
 
 #include "palpa_bench_fallback.h"
 
+#include <algorithm>
+#include <utility>
+
 namespace palpa::bench {
 
 const char* walk_end_name(std::size_t end) {
@@ -80,6 +83,62 @@ TreePathSplit split_tree_path(const mesh::SurfaceMesh& mesh, const collision::Ve
   s.nearest = latency_of(nearest_ns);
   s.locate_ring = latency_of(ring_ns);
   s.locate_wide = latency_of(wide_ns);
+  return s;
+}
+
+TrackPathSplit split_track_paths(const mesh::SurfaceMesh& mesh, const collision::VertexTree& tree,
+                                 const ProbePaths& paths, int probes, std::size_t warm_begin, std::size_t timed_begin,
+                                 const std::vector<double>& track_ns) {
+  TrackPathSplit s;
+  std::vector<collision::ContactCursor> cursors(static_cast<std::size_t>(probes));
+  std::vector<char> touching(static_cast<std::size_t>(probes), 0);
+  std::vector<double> walk_ns, proxy_ns, released_ns, tree_ns, out_ns;
+  std::vector<std::pair<double, int>> proxy_triangles;  // (time, triangles of the first walk)
+  std::size_t i = 0;  // timed query
+  for (std::size_t k = warm_begin; k < paths.ticks; ++k) {
+    for (int p = 0; p < probes; ++p) {
+      const Vec3& q = paths.at(k, p);
+      collision::ContactCursor& cursor = cursors[static_cast<std::size_t>(p)];
+      const bool in_contact = touching[static_cast<std::size_t>(p)] != 0;
+      const collision::ContactCursor before = cursor;
+      const collision::ContactAnswer ca = collision::track_contact(mesh, tree, q, cursor, in_contact);
+      touching[static_cast<std::size_t>(p)] = ca.surface.triangle != kNoIndex && ca.surface.offset < 0;
+      if (k < timed_begin) continue;
+      const double ns = i < track_ns.size() ? track_ns[i] : 0.0;
+      ++i;
+      ++s.queries;
+      const bool from_proxy = in_contact && before.triangle < mesh.triangle_count();
+      if (!from_proxy) {
+        out_ns.push_back(ns);
+      } else if (ca.path == collision::ContactPath::Walk) {
+        walk_ns.push_back(ns);
+      } else if (ca.path == collision::ContactPath::Tree) {
+        tree_ns.push_back(ns);
+      } else if (ca.path == collision::ContactPath::Proxy) {
+        (ca.surface.offset < 0 ? proxy_ns : released_ns).push_back(ns);
+        collision::WalkTrace trace;
+        collision::walk_surface_point(mesh, q, before.triangle, trace);
+        ++s.proxy_walk_ends[static_cast<std::size_t>(trace.end)];
+        if (ca.surface.offset < 0) proxy_triangles.emplace_back(ns, trace.count);
+      }
+    }
+  }
+  if (!proxy_triangles.empty()) {
+    std::sort(proxy_triangles.begin(), proxy_triangles.end());
+    const std::size_t n = proxy_triangles.size(), slow = n - n * 9 / 10;
+    double all = 0, tail = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      all += proxy_triangles[k].second;
+      if (k >= n - slow) tail += proxy_triangles[k].second;
+    }
+    s.proxy_walk_triangles = all / static_cast<double>(n);
+    s.proxy_walk_triangles_slowest_tenth = tail / static_cast<double>(slow);
+  }
+  s.walk = latency_of(walk_ns);
+  s.proxy = latency_of(proxy_ns);
+  s.proxy_released = latency_of(released_ns);
+  s.tree_in_contact = latency_of(tree_ns);
+  s.out_of_contact = latency_of(out_ns);
   return s;
 }
 

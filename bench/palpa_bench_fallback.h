@@ -46,6 +46,39 @@ TreePathSplit split_tree_path(const mesh::SurfaceMesh& mesh, const collision::Ve
                               const ProbePaths& paths, int probes, std::size_t warm_begin, std::size_t timed_begin,
                               const std::vector<double>& local_ns);
 
+/// The tick's query (track_contact) split the same way: its latency on each
+/// of its paths, where the proxy path is split by what it did, and why the
+/// first walk from the proxy declined there.
+struct TrackPathSplit {
+  std::size_t queries = 0;  ///< queries replayed (the timed ones)
+  Latency walk;             ///< path Walk
+  /// path Proxy below the surface: the proxy held in its cone or slid
+  /// (and maybe walked again from where it slid)
+  Latency proxy;
+  /// path Proxy with the probe above the slid proxy: the tree was asked
+  /// before the contact was let go, and found the probe above the surface
+  Latency proxy_released;
+  Latency tree_in_contact;  ///< path Tree in contact: came out above the proxy, below another part of the surface
+  Latency out_of_contact;   ///< paths Tree and Clear out of contact (query_contact's)
+  /// Of the proxy paths, how many per collision::WalkEnd of the first walk
+  /// from the proxy's triangle (replayed without the jump test); Answer: it
+  /// answered, but farther than the foot can have moved (the proxy chases
+  /// it) or after a jump.
+  std::array<std::size_t, static_cast<std::size_t>(collision::WalkEnd::OutOfSteps) + 1> proxy_walk_ends{};
+  /// Triangles that first walk visited, on average over the proxy paths
+  /// below the surface, and over the slowest tenth of them (each triangle
+  /// visited is prepared and solved again every tick).
+  double proxy_walk_triangles = 0;
+  double proxy_walk_triangles_slowest_tenth = 0;
+};
+
+/// Replays track_contact over `paths` as palpa-bench's `track` method does
+/// (same verdict, same ticks) and splits the timed queries by path.
+/// `track_ns`: that method's time per timed query (ns), in the same order.
+TrackPathSplit split_track_paths(const mesh::SurfaceMesh& mesh, const collision::VertexTree& tree,
+                                 const ProbePaths& paths, int probes, std::size_t warm_begin, std::size_t timed_begin,
+                                 const std::vector<double>& track_ns);
+
 /// The walk's end as printed ("too deep", "jump", ...).
 const char* walk_end_name(std::size_t end);
 

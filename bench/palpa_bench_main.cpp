@@ -840,6 +840,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       track_proxies = 0;
     };
     ns["track"] = time_queries_least(rep, reset_track, paths, probes, 0, plan.warmup, 1, track, a_track);
+    const bench::TrackPathSplit track_split =
+        bench::split_track_paths(mesh_ref, tree, paths, probes, 0, plan.warmup, ns["track"]);
     const double track_walk_share = static_cast<double>(track_walks) / static_cast<double>(paths.ticks * probes);
     const double track_proxy_share = static_cast<double>(track_proxies) / static_cast<double>(paths.ticks * probes);
     const auto reset_tree = [&] { cursors = {}; };
@@ -1013,6 +1015,44 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["tree_nearest_warm"] = latency_json(split.nearest);
       r["tree_locate_ring_warm"] = latency_json(split.locate_ring);
       r["tree_locate_widened_warm"] = latency_json(split.locate_wide);
+      res.records.push_back(r);
+    }
+    {
+      // The tick's query (track_contact) by path: which of its paths sets
+      // its p99 against CGAL's.
+      const bench::TrackPathSplit& t = track_split;
+      std::string why;
+      for (std::size_t e = 0; e < t.proxy_walk_ends.size(); ++e) {
+        if (t.proxy_walk_ends[e] == 0) continue;
+        why += (why.empty() ? "" : ", ") + std::string(bench::walk_end_name(e)) + " " +
+               std::to_string(t.proxy_walk_ends[e]);
+      }
+      auto part = [](const char* name, const Latency& l) {
+        char b[128];
+        std::snprintf(b, sizeof b, "%s %zu p50 %.3f p99 %.3f", name, l.samples, l.p50_us, l.p99_us);
+        return std::string(b);
+      };
+      std::printf("[%s] %d probe%s: track query by path (us): %s; %s; %s; %s; %s; the proxy's first walk ended: %s; "
+                  "triangles it visited: %.2f on average, %.2f on the slowest tenth of the proxy's queries\n",
+                  mc.name.c_str(), probes, probes > 1 ? "s" : "", part("walk", t.walk).c_str(),
+                  part("proxy", t.proxy).c_str(), part("proxy let go", t.proxy_released).c_str(),
+                  part("tree in contact", t.tree_in_contact).c_str(), part("out of contact", t.out_of_contact).c_str(),
+                  why.empty() ? "none" : why.c_str(), t.proxy_walk_triangles, t.proxy_walk_triangles_slowest_tenth);
+      json r = base;
+      r["suite"] = "query_track_path";
+      r["probes"] = probes;
+      r["queries"] = t.queries;
+      r["walk"] = latency_json(t.walk);
+      r["proxy"] = latency_json(t.proxy);
+      r["proxy_let_go"] = latency_json(t.proxy_released);
+      r["tree_in_contact"] = latency_json(t.tree_in_contact);
+      r["out_of_contact"] = latency_json(t.out_of_contact);
+      json d = json::object();
+      for (std::size_t e = 0; e < t.proxy_walk_ends.size(); ++e)
+        if (t.proxy_walk_ends[e]) d[bench::walk_end_name(e)] = t.proxy_walk_ends[e];
+      r["proxy_first_walk_ended"] = d;
+      r["proxy_first_walk_triangles_mean"] = t.proxy_walk_triangles;
+      r["proxy_first_walk_triangles_slowest_tenth"] = t.proxy_walk_triangles_slowest_tenth;
       res.records.push_back(r);
     }
     std::fflush(stdout);
