@@ -23,6 +23,15 @@ const char* walk_end_name(std::size_t end) {
   return "?";
 }
 
+std::string walk_end_counts_text(const WalkEndCounts& counts) {
+  std::string text;
+  for (std::size_t e = 0; e < counts.size(); ++e) {
+    if (counts[e] == 0) continue;
+    text += (text.empty() ? "" : ", ") + std::string(walk_end_name(e)) + " " + std::to_string(counts[e]);
+  }
+  return text.empty() ? "none" : text;
+}
+
 namespace {
 
 // Replays one of the contact queries (`query`: query_contact or

@@ -14,19 +14,24 @@
 
 #include <array>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 namespace palpa::bench {
+
+/// A count per collision::WalkEnd (index = its value, one slot per value up
+/// to OutOfSteps).
+using WalkEndCounts = std::array<std::size_t, static_cast<std::size_t>(collision::WalkEnd::OutOfSteps) + 1>;
 
 struct TreePathSplit {
   std::size_t queries = 0;       ///< queries replayed (the timed ones)
   std::size_t walk = 0;          ///< answered by the walk
   std::size_t tree = 0;          ///< answered on the tree path
   std::size_t tree_in_contact = 0;  ///< of those, after a walk that declined (the probe was in contact)
-  /// Of tree_in_contact, how many per collision::WalkEnd (index = its
-  /// value, one slot per value up to OutOfSteps). A walk that would have
-  /// answered counts as Jump: only query_contact's jump test declines it.
-  std::array<std::size_t, static_cast<std::size_t>(collision::WalkEnd::OutOfSteps) + 1> declines{};
+  /// Of tree_in_contact, how many per collision::WalkEnd. A walk that
+  /// would have answered counts as Jump: only query_contact's jump test
+  /// declines it.
+  WalkEndCounts declines{};
   Latency walk_query;     ///< the timed query's latency (us) on the walk's queries
   Latency tree_query;     ///< the same on the tree path's queries
   /// The tree path's parts, run again right after the query (caches warm):
@@ -64,7 +69,7 @@ struct TrackPathSplit {
   /// from the proxy's triangle (replayed without the jump test); Answer: it
   /// answered, but farther than the foot can have moved (the proxy chases
   /// it) or after a jump.
-  std::array<std::size_t, static_cast<std::size_t>(collision::WalkEnd::OutOfSteps) + 1> proxy_walk_ends{};
+  WalkEndCounts proxy_walk_ends{};
   /// Triangles that first walk visited, on average over the proxy paths
   /// below the surface, and over the slowest tenth of them (each triangle
   /// visited is prepared and solved again every tick).
@@ -81,5 +86,9 @@ TrackPathSplit split_track_paths(const mesh::SurfaceMesh& mesh, const collision:
 
 /// The walk's end as printed ("too deep", "jump", ...).
 const char* walk_end_name(std::size_t end);
+
+/// The non-zero counts as printed ("too deep 63, stepped back 4"), or
+/// "none".
+std::string walk_end_counts_text(const WalkEndCounts& counts);
 
 }  // namespace palpa::bench

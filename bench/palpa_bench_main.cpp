@@ -378,6 +378,14 @@ json latency_json(const Latency& l) {
           {"max_us", l.max_us}, {"mean_us", l.mean_us}, {"samples", l.samples}};
 }
 
+// The non-zero counts of a bench::WalkEndCounts, by the end's printed name.
+json walk_end_counts_json(const bench::WalkEndCounts& counts) {
+  json d = json::object();
+  for (std::size_t e = 0; e < counts.size(); ++e)
+    if (counts[e]) d[bench::walk_end_name(e)] = counts[e];
+  return d;
+}
+
 // ---------------------------------------------------------------------------
 // Bytes counted for the copy-bandwidth figure, from the public state only
 // (SurfaceState::vertices, sizeof(VertexState) = 24 B: h, v, q):
@@ -983,12 +991,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     {
       // The local query's tree path (target 3's p99 against CGAL): where
       // it is over 1% of the queries, the query's p99 falls among them.
-      std::string why;
-      for (std::size_t e = 0; e < split.declines.size(); ++e) {
-        if (split.declines[e] == 0) continue;
-        why += (why.empty() ? "" : ", ") + std::string(bench::walk_end_name(e)) + " " +
-               std::to_string(split.declines[e]);
-      }
+      const std::string why = bench::walk_end_counts_text(split.declines);
       std::printf("[%s] %d probe%s: local query by path: walk %zu p50 %.3f p99 %.3f us; tree %zu (%.1f%%) p50 %.3f p99 %.3f us, "
                   "%zu of them after the walk declined (%s); the tree path again, warm: nearest_local p50 %.3f p99 %.3f, "
                   "locate_surface_point in the one ring %zu p50 %.3f p99 %.3f, widened %zu p50 %.3f p99 %.3f us\n",
@@ -996,7 +999,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
                   split.walk_query.p99_us, split.tree,
                   split.queries ? 100.0 * static_cast<double>(split.tree) / static_cast<double>(split.queries) : 0.0,
                   split.tree_query.p50_us, split.tree_query.p99_us, split.tree_in_contact,
-                  why.empty() ? "none" : why.c_str(), split.nearest.p50_us, split.nearest.p99_us,
+                  why.c_str(), split.nearest.p50_us, split.nearest.p99_us,
                   split.locate_ring.samples, split.locate_ring.p50_us, split.locate_ring.p99_us,
                   split.locate_wide.samples, split.locate_wide.p50_us, split.locate_wide.p99_us);
       json r = base;
@@ -1006,10 +1009,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["walk"] = split.walk;
       r["tree"] = split.tree;
       r["tree_after_declined_walk"] = split.tree_in_contact;
-      json d = json::object();
-      for (std::size_t e = 0; e < split.declines.size(); ++e)
-        if (split.declines[e]) d[bench::walk_end_name(e)] = split.declines[e];
-      r["walk_declined"] = d;
+      r["walk_declined"] = walk_end_counts_json(split.declines);
       r["walk_query"] = latency_json(split.walk_query);
       r["tree_query"] = latency_json(split.tree_query);
       r["tree_nearest_warm"] = latency_json(split.nearest);
@@ -1021,12 +1021,6 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       // The tick's query (track_contact) by path: which of its paths sets
       // its p99 against CGAL's.
       const bench::TrackPathSplit& t = track_split;
-      std::string why;
-      for (std::size_t e = 0; e < t.proxy_walk_ends.size(); ++e) {
-        if (t.proxy_walk_ends[e] == 0) continue;
-        why += (why.empty() ? "" : ", ") + std::string(bench::walk_end_name(e)) + " " +
-               std::to_string(t.proxy_walk_ends[e]);
-      }
       auto part = [](const char* name, const Latency& l) {
         char b[128];
         std::snprintf(b, sizeof b, "%s %zu p50 %.3f p99 %.3f", name, l.samples, l.p50_us, l.p99_us);
@@ -1037,7 +1031,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
                   mc.name.c_str(), probes, probes > 1 ? "s" : "", part("walk", t.walk).c_str(),
                   part("proxy", t.proxy).c_str(), part("proxy let go", t.proxy_released).c_str(),
                   part("tree in contact", t.tree_in_contact).c_str(), part("out of contact", t.out_of_contact).c_str(),
-                  why.empty() ? "none" : why.c_str(), t.proxy_walk_triangles, t.proxy_walk_triangles_slowest_tenth);
+                  bench::walk_end_counts_text(t.proxy_walk_ends).c_str(), t.proxy_walk_triangles,
+                  t.proxy_walk_triangles_slowest_tenth);
       json r = base;
       r["suite"] = "query_track_path";
       r["probes"] = probes;
@@ -1047,10 +1042,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["proxy_let_go"] = latency_json(t.proxy_released);
       r["tree_in_contact"] = latency_json(t.tree_in_contact);
       r["out_of_contact"] = latency_json(t.out_of_contact);
-      json d = json::object();
-      for (std::size_t e = 0; e < t.proxy_walk_ends.size(); ++e)
-        if (t.proxy_walk_ends[e]) d[bench::walk_end_name(e)] = t.proxy_walk_ends[e];
-      r["proxy_first_walk_ended"] = d;
+      r["proxy_first_walk_ended"] = walk_end_counts_json(t.proxy_walk_ends);
       r["proxy_first_walk_triangles_mean"] = t.proxy_walk_triangles;
       r["proxy_first_walk_triangles_slowest_tenth"] = t.proxy_walk_triangles_slowest_tenth;
       res.records.push_back(r);
