@@ -1,5 +1,5 @@
-// palpa-bench's account of the contact query's tree path (see
-// palpa_bench_fallback.h).
+// palpa-bench's account of the contact query's tree path and of the tick's
+// query's paths (see palpa_bench_fallback.h).
 
 #include "palpa_bench_fallback.h"
 

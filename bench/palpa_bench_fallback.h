@@ -5,6 +5,9 @@
 // query with CGAL's hinted query at p99, and on meshes where the walk
 // declines on more than 1% of the queries that p99 falls among the tree
 // path's queries: this says which decline it is and which part is slow.
+// The same for the haptic tick's own query (collision::track_contact):
+// its latency on each of its paths, and why the proxy's first walk
+// declined.
 
 #include "collision/contact.h"
 #include "collision/vertex_tree.h"
