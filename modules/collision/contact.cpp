@@ -377,6 +377,29 @@ Index across_edge(const mesh::SurfaceMesh& mesh, Index t, Index a, Index b) {
   return found;
 }
 
+// The edge of the prepared triangle f whose neighbour the probe's foot has
+// likely crossed into, guessed without solving: the probe carried onto the
+// triangle's plane along the interpolated normal at `hint` (the last
+// answer's weights on f), where one weight of the point reached is negative
+// and the other two are not. The weights are compared scaled by their
+// common denominator, so no division is made. -1: no guess (the point is
+// inside, near a corner, or the normal there is parallel to the plane).
+// Since the normal at the new foot is not the one at `hint`, the guess can
+// be wrong; the walk checks it (see walk).
+int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
+  const Vec3 nh = hint[0] * f.n[0] + hint[1] * f.n[1] + hint[2] * f.n[2];
+  const double den = f.k0.dot(nh);  // (e1 x e2) . nh
+  if (!(den > 0)) return -1;
+  // d = u e1 + v e2 + s nh by Cramer's rule, u and v times den.
+  const Vec3 d = probe - f.p0;
+  const double u = d.dot(f.e2.cross(nh)), v = d.dot(nh.cross(f.e1));
+  const double w = den - u - v;
+  if (w < 0) return u >= 0 && v >= 0 ? 0 : -1;
+  if (u < 0) return w >= 0 && v >= 0 ? 1 : -1;
+  if (v < 0) return w >= 0 && u >= 0 ? 2 : -1;
+  return -1;
+}
+
 // The walk of walk_surface_point, preparing each triangle in `frame` (kept
 // when it already holds the start triangle of this mesh). With
 // `max_move_from` set, it first declines when the probe is farther from that
@@ -384,8 +407,23 @@ Index across_edge(const mesh::SurfaceMesh& mesh, Index t, Index a, Index b) {
 // better start). On success also gives the triangle's vertex nearest to the
 // probe. With `trace`, records the triangles visited and which of them
 // would repeat the answer (see WalkTrace).
+//
+// With `hint` (the last answer's weights on the start triangle) and
+// `max_move_from` (where the probe was then), a probe that may have crossed
+// an edge since is first looked for across the edge guessed_exit names,
+// without solving the start triangle: a crossing then costs one solve, not
+// two. The guess is taken only when the foot of the interpolated normal,
+// which within half the focal distance moves at most twice as far as the
+// probe, can have left the start triangle: when its smallest last weight,
+// times the triangle's smallest height, is within twice the probe's move.
+// When the neighbour does not hold the foot (outside, or no solution), the
+// walk goes back to the start and goes on exactly as without the guess. So
+// the answer is the same, except where the foot lies in both triangles
+// (on their shared edge, within kInsideTolerance of it): there it is the
+// neighbour's, the same point up to round-off.
 SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* max_move_from,
-                  TriangleFrame& frame, Index& nearest_vertex, WalkTrace* trace = nullptr) {
+                  TriangleFrame& frame, Index& nearest_vertex, WalkTrace* trace = nullptr,
+                  const Vec3* hint = nullptr) {
   const SurfacePoint none;
   if (trace) {
     trace->count = 0;
@@ -414,6 +452,9 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
   // edge crossed before), which count towards kMaxFanSteps instead.
   int steps = 0, fan_steps = 0;
   Index edge_a = kNoIndex, edge_b = kNoIndex;  // the edge crossed last
+  // The start, while the walk is on the neighbour guessed_exit named
+  // instead of it; kNoIndex otherwise.
+  Index guessed_from = kNoIndex;
   for (bool first = true;; first = false) {
     if (trace && trace->count < WalkTrace::kCapacity) trace->triangles[trace->count++] = t;
     if (frame.mesh != &mesh || frame.triangle != t) make_frame(mesh, t, frame);
@@ -421,10 +462,38 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
     // Jump test on the start triangle: moved farther than its longest edge.
     if (first && max_move_from) {
       const double longest_sq = std::max({f.a11, f.a22, f.e3_sq});
-      if (!((probe - *max_move_from).squaredNorm() <= longest_sq)) return end(none, false, WalkEnd::Jump);
+      const double move_sq = (probe - *max_move_from).squaredNorm();
+      if (!(move_sq <= longest_sq)) return end(none, false, WalkEnd::Jump);
+      // The foot may have left: smallest weight times smallest height
+      // (sqrt(det) / longest edge) within twice the move. Then the guess.
+      if (hint && neighbors) {
+        const double low = hint->minCoeff();
+        if (!(low * low * f.det > 4 * move_sq * longest_sq)) {
+          const int k = guessed_exit(f, probe, *hint);
+          const Index across = k >= 0 ? mesh.triangle_neighbors[t][k] : kNoIndex;
+          if (across != kNoIndex) {
+            guessed_from = t;
+            t = across;
+            continue;
+          }
+        }
+      }
     }
+    // Back from a wrong guess: the walk starts again on the start triangle,
+    // as it would have without the guess.
+    auto back = [&] {
+      t = guessed_from;
+      guessed_from = kNoIndex;
+      if (trace) trace->count = 0;
+    };
     Vec3 b;
-    if (!solve_interpolated_normal(f, probe, b)) return end(none, true, WalkEnd::Unsolved);
+    if (!solve_interpolated_normal(f, probe, b)) {
+      if (guessed_from != kNoIndex) {
+        back();
+        continue;
+      }
+      return end(none, true, WalkEnd::Unsolved);
+    }
     if (b.minCoeff() >= -kInsideTolerance) {
       // Inside: the same weights and virtual vertex as locate_surface_point's.
       b = clamped_inside(b);
@@ -440,6 +509,10 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
       const double d0 = d.squaredNorm(), d1 = (d - f.e1).squaredNorm(), d2 = (d - f.e2).squaredNorm();
       nearest_vertex = d0 <= d1 && d0 <= d2 ? f.corners[0] : (d1 <= d2 ? f.corners[1] : f.corners[2]);
       return end(sp, true, WalkEnd::Answer);
+    }
+    if (guessed_from != kNoIndex) {
+      back();
+      continue;
     }
     // Outside: step across the edge opposite the most negative weight; a
     // step straight back means the solution sits in no triangle here.
@@ -563,7 +636,8 @@ namespace {
 // `jump_from` when given), not yet committed to the cursor.
 SurfacePoint walk_from(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
                        ContactCursor& cursor, Index& nearest, WalkTrace* trace = nullptr) {
-  return walk(mesh, probe, start, jump_from, cursor.frame, nearest, trace);
+  const Vec3* hint = start == cursor.triangle ? &cursor.barycentric : nullptr;
+  return walk(mesh, probe, start, jump_from, cursor.frame, nearest, trace, hint);
 }
 
 // Fills `ans` (path Walk) and the cursor with a walk's answer.

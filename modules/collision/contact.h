@@ -88,7 +88,9 @@ enum class WalkEnd : unsigned char {
 /// straight back, a walk started on the last triangle steps back once and
 /// then stops there too), except where this one ran out of steps: a new
 /// walk has more. track_contact uses it to skip a second walk whose answer
-/// it knows.
+/// it knows. (A tick's walk that passes over its start triangle on a guess,
+/// see query_contact, records it unsolved; where the guess was wrong the
+/// walk comes back and the trace starts again from there.)
 struct WalkTrace {
   /// Most triangles a walk can visit: the start, kMaxWalkSteps - 1 steps
   /// and kMaxFanSteps steps around high-valence vertices.
@@ -194,7 +196,11 @@ struct ContactAnswer {
 /// The contact query of one haptic tick. When `in_contact` (the caller's
 /// verdict on the previous answer: the probe was touching the surface) and
 /// the probe moved less than the longest edge of the last triangle since
-/// then, the walk runs from that triangle; when it declines, or otherwise,
+/// then, the walk runs from that triangle (where the last answer's weights,
+/// the cursor's barycentric, put its foot near enough to an edge for the
+/// probe's motion to have carried it across, the walk first tries the
+/// neighbour it guesses the foot is in; a wrong guess costs time, never a
+/// different answer); when it declines, or otherwise,
 /// the tree's local search finds the exact nearest vertex and
 /// locate_surface_point the surface point around it. Updates the cursor. No
 /// allocation.

@@ -800,6 +800,93 @@ TEST(ContactWalk, AWalkFromALaterTriangleOfItsTraceEndsAsTheTraceSaysOnOrgans) {
   }
 }
 
+// The in-contact walk of query_contact first looks for a probe that may
+// have crossed an edge across the edge it guesses from the last answer's
+// weights (the cursor's barycentric), without solving the start triangle.
+// Right or wrong, the guess must not change the answer: it must be the
+// walk's from the same start without a guess (walk_surface_point), bit for
+// bit, or no walk answer when that walk has none. The hints here are the
+// true last weights and made-up ones (which make the guess wrong more
+// often); the test works out the guess itself, as the walk documents it
+// (when it is made, and which edge), and requires that both right and
+// wrong guesses were exercised.
+TEST(ContactWalk, AGuessedCrossingGivesTheAnswerOfTheWalkWithoutIt) {
+  const double radius = 0.05;
+  std::size_t right = 0, wrong = 0, compared = 0;
+  for (std::size_t n : {2000u, 20000u}) {
+    const auto m = mesh::make_sphere(n, radius);
+    const VertexTree tree(m.positions);
+    std::mt19937 rng(77 + static_cast<unsigned>(n));
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::uniform_int_distribution<Index> pick(0, m.triangle_count() - 1);
+    for (int trial = 0; trial < 4000; ++trial) {
+      const Index s = pick(rng);
+      const auto& tri = m.triangles[s];
+      const Vec3 p[3] = {m.positions[tri[0]], m.positions[tri[1]], m.positions[tri[2]]};
+      const Vec3 nrm[3] = {m.normals[tri[0]], m.normals[tri[1]], m.normals[tri[2]]};
+      const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+      const double longest_sq = std::max({e1.squaredNorm(), e2.squaredNorm(), (e2 - e1).squaredNorm()});
+      // The last answer: a point of s near an edge, 0.1 to 2 mm deep.
+      Vec3 last(unit(rng), unit(rng), 0.02 * unit(rng));
+      std::shuffle(last.data(), last.data() + 3, rng);
+      last /= last.sum();
+      const Vec3 at = last[0] * p[0] + last[1] * p[1] + last[2] * p[2];
+      const Vec3 along = (last[0] * nrm[0] + last[1] * nrm[1] + last[2] * nrm[2]).normalized();
+      const Vec3 before = at - (1e-4 + 1.9e-3 * unit(rng)) * along;
+      // The probe now: moved up to 0.6 of the longest edge (no jump).
+      const Vec3 dir = Vec3(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5).normalized();
+      const Vec3 probe = before + 0.6 * std::sqrt(longest_sq) * unit(rng) * dir;
+      // The true last weights, or made-up ones with a small least weight.
+      Vec3 hint = last;
+      if (trial % 2 == 1) {
+        hint = Vec3(unit(rng), unit(rng), 0.03 * unit(rng));
+        std::shuffle(hint.data(), hint.data() + 3, rng);
+        hint /= hint.sum();
+      }
+      // The guess, worked out here: whether the foot can have left s (its
+      // least weight times s's least height within twice the move), then
+      // the probe carried onto s's plane along the normal at `hint`.
+      const double det = e1.squaredNorm() * e2.squaredNorm() - std::pow(e1.dot(e2), 2);
+      const double move_sq = (probe - before).squaredNorm();
+      int k = -1;
+      if (!(hint.minCoeff() * hint.minCoeff() * det > 4 * move_sq * longest_sq)) {
+        const Vec3 nh = hint[0] * nrm[0] + hint[1] * nrm[1] + hint[2] * nrm[2];
+        Eigen::Matrix3d a;
+        a << e1, e2, nh;
+        const Vec3 x = a.colPivHouseholderQr().solve(probe - p[0]);
+        const Vec3 w(1 - x[0] - x[1], x[0], x[1]);
+        if ((w.array() < 0).count() == 1 && e1.cross(e2).dot(nh) > 0) w.minCoeff(&k);
+      }
+      const SurfacePoint plain = walk_surface_point(m, probe, s);
+      ContactCursor cursor;
+      cursor.triangle = s;
+      cursor.probe = before;
+      cursor.barycentric = hint;
+      const ContactAnswer ans = query_contact(m, tree, probe, cursor, true);
+      const std::string what = "n " + std::to_string(n) + " trial " + std::to_string(trial);
+      if (plain.triangle == kNoIndex) {
+        EXPECT_NE(ans.path, ContactPath::Walk) << what;
+        continue;
+      }
+      ++compared;
+      ASSERT_EQ(ans.path, ContactPath::Walk) << what;
+      EXPECT_EQ(ans.surface.triangle, plain.triangle) << what;
+      EXPECT_EQ(ans.surface.barycentric, plain.barycentric) << what;
+      EXPECT_EQ(ans.surface.point, plain.point) << what;
+      EXPECT_EQ(ans.surface.normal, plain.normal) << what;
+      EXPECT_EQ(ans.surface.offset, plain.offset) << what;
+      if (k >= 0) {
+        if (plain.triangle == m.triangle_neighbors[s][k]) ++right;
+        else ++wrong;  // the walk had to come back to s
+      }
+    }
+  }
+  std::printf("walk answers compared %zu; the guess right %zu, wrong %zu\n", compared, right, wrong);
+  EXPECT_GE(compared, 4000u);
+  EXPECT_GE(right, 500u);
+  EXPECT_GE(wrong, 20u);
+}
+
 TEST(ContactWalk, QueryContactWalksOnlyInContactAndWithoutJumps) {
   const double radius = 0.05;
   const auto m = mesh::make_sphere(20000, radius);
