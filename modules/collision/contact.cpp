@@ -416,11 +416,15 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
 // which within half the focal distance moves at most twice as far as the
 // probe, can have left the start triangle: when its smallest last weight,
 // times the triangle's smallest height, is within twice the probe's move.
-// When the neighbour does not hold the foot (outside, or no solution), the
-// walk goes back to the start and goes on exactly as without the guess. So
-// the answer is the same, except where the foot lies in both triangles
-// (on their shared edge, within kInsideTolerance of it): there it is the
-// neighbour's, the same point up to round-off.
+// The guess is made only from a foot (the cursor's at_foot: not from the
+// proxy's point, under which the probe is deeper than half the focal
+// distance). When the neighbour gives no answer (the foot is not in it, no
+// solution, or a foot there above the surface or too deep), the walk goes
+// back to the start and goes on exactly as without the guess. So the answer
+// is the same, except where both triangles hold a foot: on their shared
+// edge (within kInsideTolerance of it), where the neighbour's is the same
+// point up to round-off, or where the surface folds back within reach,
+// where it is the neighbour's foot, which passed the same tests.
 SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* max_move_from,
                   TriangleFrame& frame, Index& nearest_vertex, WalkTrace* trace = nullptr,
                   const Vec3* hint = nullptr) {
@@ -500,10 +504,19 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
       SurfacePoint sp = finish(f.p, f.n, t, b, probe, true);
       // Still below the surface (a probe that left is for the tree to place),
       // and within half the focal distance: 4 offset^2 |dn|^2 <= |dp|^2 on every edge.
-      if (!(sp.offset < 0)) return end(none, true, WalkEnd::Above);
+      // On the guessed neighbour only an answer is taken: a decline there
+      // goes back to the start, whose own foot (where the probe is that
+      // deep there may be one in each) the walk without the guess would
+      // have judged.
       const double o2 = 4 * sp.offset * sp.offset;
-      if (!(o2 * f.f1_sq <= f.a11 && o2 * f.f2_sq <= f.a22 && o2 * f.f3_sq <= f.e3_sq))
-        return end(none, true, WalkEnd::TooDeep);
+      const bool above = !(sp.offset < 0);
+      const bool too_deep = !(o2 * f.f1_sq <= f.a11 && o2 * f.f2_sq <= f.a22 && o2 * f.f3_sq <= f.e3_sq);
+      if ((above || too_deep) && guessed_from != kNoIndex) {
+        back();
+        continue;
+      }
+      if (above) return end(none, true, WalkEnd::Above);
+      if (too_deep) return end(none, true, WalkEnd::TooDeep);
       // The triangle's vertex nearest to the probe.
       const Vec3 d = probe - f.p0;
       const double d0 = d.squaredNorm(), d1 = (d - f.e1).squaredNorm(), d2 = (d - f.e2).squaredNorm();
@@ -636,7 +649,7 @@ namespace {
 // `jump_from` when given), not yet committed to the cursor.
 SurfacePoint walk_from(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
                        ContactCursor& cursor, Index& nearest, WalkTrace* trace = nullptr) {
-  const Vec3* hint = start == cursor.triangle ? &cursor.barycentric : nullptr;
+  const Vec3* hint = start == cursor.triangle && cursor.at_foot ? &cursor.barycentric : nullptr;
   return walk(mesh, probe, start, jump_from, cursor.frame, nearest, trace, hint);
 }
 
@@ -648,6 +661,7 @@ void commit_walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, const Surface
   ans.path = ContactPath::Walk;
   cursor.triangle = sp.triangle;
   cursor.barycentric = sp.barycentric;
+  cursor.at_foot = true;
   cursor.probe = probe;
   // Ask for the triangle across the nearest edge now, and once it has
   // arrived (the next query on this triangle) for its far corner, so that
@@ -702,6 +716,7 @@ ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   ans.path = ContactPath::Tree;
   cursor.triangle = ans.surface.triangle;
   cursor.barycentric = ans.surface.barycentric;
+  cursor.at_foot = ans.surface.inside;
   cursor.probe = probe;
   // Above the surface: how far the probe may move before it can reach it
   // (the tree's bound, less 1 nm for round-off).
@@ -929,6 +944,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   ans.path = ContactPath::Proxy;
   cursor.triangle = slid.triangle;
   cursor.barycentric = slid.barycentric;
+  cursor.at_foot = false;
   cursor.probe = probe;
   cursor.ahead = kNoIndex;
   return ans;

@@ -149,6 +149,12 @@ struct ContactCursor {
   /// Barycentric weights of the last answer on `triangle` (sum 1): with it
   /// the last answer's point is the proxy that track_contact slides.
   Vec3 barycentric = Vec3::Zero();
+  /// True when `barycentric` is the foot of the interpolated normal through
+  /// the probe at `probe` (a walk's answer, or the tree's inside a
+  /// triangle), so that the next walk may guess from it where the foot
+  /// went; false after the proxy's answer (the probe deeper than half the
+  /// focal distance, not on the normal at the proxy).
+  bool at_foot = false;
   TriangleFrame frame;        ///< the walk's last triangle, prepared
   /// The triangle across the edge of `triangle` nearest to the last answer
   /// (where a sliding probe goes next); its data is fetched ahead of time.
@@ -197,10 +203,11 @@ struct ContactAnswer {
 /// verdict on the previous answer: the probe was touching the surface) and
 /// the probe moved less than the longest edge of the last triangle since
 /// then, the walk runs from that triangle (where the last answer's weights,
-/// the cursor's barycentric, put its foot near enough to an edge for the
+/// the cursor's barycentric when at_foot, put its foot near enough to an edge for the
 /// probe's motion to have carried it across, the walk first tries the
-/// neighbour it guesses the foot is in; a wrong guess costs time, never a
-/// different answer); when it declines, or otherwise,
+/// neighbour it guesses the foot is in; a wrong guess costs time, not a
+/// different answer, except where both triangles hold a foot); when it
+/// declines, or otherwise,
 /// the tree's local search finds the exact nearest vertex and
 /// locate_surface_point the surface point around it. Updates the cursor. No
 /// allocation.

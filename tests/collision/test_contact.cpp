@@ -862,6 +862,7 @@ TEST(ContactWalk, AGuessedCrossingGivesTheAnswerOfTheWalkWithoutIt) {
       cursor.triangle = s;
       cursor.probe = before;
       cursor.barycentric = hint;
+      cursor.at_foot = true;
       const ContactAnswer ans = query_contact(m, tree, probe, cursor, true);
       const std::string what = "n " + std::to_string(n) + " trial " + std::to_string(trial);
       if (plain.triangle == kNoIndex) {
