@@ -27,6 +27,13 @@ inline Vec3 clamped_inside(const Vec3& b) {
   const Vec3 c = b.cwiseMax(0.0);
   return c / c.sum();
 }
+// Cramer's rule for d = u e1 + v e2 + s n: (u, v) times their common
+// denominator (e1 x e2) . n, left to the caller to divide by or compare
+// against.
+inline Eigen::Vector2d cramer_weights_scaled(const Vec3& d, const Vec3& e1, const Vec3& e2, const Vec3& n) {
+  return {d.cross(e2).dot(n), e1.cross(d).dot(n)};
+}
+
 // Newton steps on the cubic of the interpolated-normal equation, at most
 // (it converges quadratically: three or four steps from the plane crossing).
 constexpr int kNewtonIterations = 16;
@@ -107,8 +114,9 @@ bool solve_interpolated_normal(const TriangleFrame& f, const Vec3& probe, Vec3& 
       // Oblique normals: solve d = u e1 + v e2 + t n0 by Cramer's rule.
       const double den = f.nk0;
       if (!(std::abs(den) > 0)) return false;
-      u = d.cross(f.e2).dot(f.n0) / den;
-      v = f.e1.cross(d).dot(f.n0) / den;
+      const Eigen::Vector2d uv = cramer_weights_scaled(d, f.e1, f.e2, f.n0);
+      u = uv[0] / den;
+      v = uv[1] / den;
     }
   } else {
     // Newton on the cubic F(t) = c0 + c1 t + c2 t^2 + c3 t^3.
@@ -390,10 +398,8 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
   const Vec3 nh = hint[0] * f.n[0] + hint[1] * f.n[1] + hint[2] * f.n[2];
   const double den = f.k0.dot(nh);  // (e1 x e2) . nh
   if (!(den > 0)) return -1;
-  // d = u e1 + v e2 + s nh by Cramer's rule, u and v times den.
-  const Vec3 d = probe - f.p0;
-  const double u = d.dot(f.e2.cross(nh)), v = d.dot(nh.cross(f.e1));
-  const double w = den - u - v;
+  const Eigen::Vector2d uv = cramer_weights_scaled(probe - f.p0, f.e1, f.e2, nh);
+  const double u = uv[0], v = uv[1], w = den - u - v;
   if (w < 0) return u >= 0 && v >= 0 ? 0 : -1;
   if (u < 0) return w >= 0 && v >= 0 ? 1 : -1;
   if (v < 0) return w >= 0 && u >= 0 ? 2 : -1;

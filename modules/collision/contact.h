@@ -203,12 +203,12 @@ struct ContactAnswer {
 /// verdict on the previous answer: the probe was touching the surface) and
 /// the probe moved less than the longest edge of the last triangle since
 /// then, the walk runs from that triangle (where the last answer's weights,
-/// the cursor's barycentric when at_foot, put its foot near enough to an edge for the
-/// probe's motion to have carried it across, the walk first tries the
-/// neighbour it guesses the foot is in; a wrong guess costs time, not a
-/// different answer, except where both triangles hold a foot); when it
-/// declines, or otherwise,
-/// the tree's local search finds the exact nearest vertex and
+/// the cursor's barycentric when at_foot, put its foot near enough to an
+/// edge for the probe's motion to have carried it across, the walk first
+/// tries the neighbour it guesses the foot is in; a wrong guess costs time,
+/// not a different answer, except where both triangles hold a foot); when
+/// it declines, or otherwise, the tree's local search finds the exact
+/// nearest vertex and
 /// locate_surface_point the surface point around it. Updates the cursor. No
 /// allocation.
 ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
