@@ -17,6 +17,12 @@ namespace {
 // Barycentric weights within this of [0, 1] count as inside a triangle.
 constexpr double kInsideTolerance = 1e-9;
 
+// Every coordinate finite: three compares (Eigen's allFinite forms v - v).
+inline bool finite(const Vec3& v) {
+  constexpr double kMax = std::numeric_limits<double>::max();
+  return (std::abs(v[0]) <= kMax) & (std::abs(v[1]) <= kMax) & (std::abs(v[2]) <= kMax);
+}
+
 // Weights of a solution inside within kInsideTolerance, clamped to the
 // triangle: the common case, all weights already >= 0 (they sum to 1 up to
 // round-off from b0 = 1 - u - v), is kept as solved; only a weight just
@@ -67,6 +73,7 @@ void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
   f.a22 = f.e2.dot(f.e2);
   f.det = f.a11 * f.a22 - f.a12 * f.a12;
   f.flat = f.f1.isZero(0) && f.f2.isZero(0);
+  f.neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
   f.k0 = f.e1.cross(f.e2);
   f.k1 = f.f1.cross(f.e2) + f.e1.cross(f.f2);
   f.k2 = f.f1.cross(f.f2);
@@ -75,6 +82,7 @@ void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
   f.nk1 = f.n0.dot(f.k1);
   f.nk2 = f.n0.dot(f.k2);
   f.e3_sq = (f.e2 - f.e1).squaredNorm();
+  f.longest_sq = std::max({f.a11, f.a22, f.e3_sq});
   f.root_scale = std::sqrt(f.a11 + f.a22);
   f.f1_sq = f.f1.squaredNorm();
   f.f2_sq = f.f2.squaredNorm();
@@ -345,9 +353,8 @@ void visit(const mesh::SurfaceMesh& mesh, Index v, bool ring, bool wide, F&& f) 
 // The virtual vertex on triangle t (corner positions p, m, and unit normals
 // nrm) at weights b: interpolated point and unit normal, and the offset of
 // the probe along that normal.
-SurfacePoint finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec3& b, const Vec3& probe,
-                    bool inside) {
-  SurfacePoint sp;
+void finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec3& b, const Vec3& probe, bool inside,
+            SurfacePoint& sp) {
   sp.triangle = t;
   sp.barycentric = b;
   sp.inside = inside;
@@ -356,14 +363,15 @@ SurfacePoint finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec
   const double len = n.norm();
   sp.normal = len > 0 && std::isfinite(len) ? Vec3(n / len) : Vec3((p[1] - p[0]).cross(p[2] - p[0]).normalized());
   sp.offset = (probe - sp.point).dot(sp.normal);
-  return sp;
 }
 
 SurfacePoint finish(const mesh::SurfaceMesh& mesh, Index t, const Vec3& b, const Vec3& probe, bool inside) {
   const mesh::Triangle& tri = mesh.triangles[t];
   const Vec3 p[3] = {mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
   const Vec3 n[3] = {mesh.normals[tri[0]], mesh.normals[tri[1]], mesh.normals[tri[2]]};
-  return finish(p, n, t, b, probe, inside);
+  SurfacePoint sp;
+  finish(p, n, t, b, probe, inside, sp);
+  return sp;
 }
 
 // The triangle on the other side of edge (a, b) of triangle t: the one other
@@ -410,9 +418,12 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
 // when it already holds the start triangle of this mesh). With
 // `max_move_from` set, it first declines when the probe is farther from that
 // point than the longest edge of the start triangle (a jump: the tree is the
-// better start). On success also gives the triangle's vertex nearest to the
-// probe. With `trace`, records the triangles visited and which of them
-// would repeat the answer (see WalkTrace).
+// better start). Returns true with the answer in `sp` and the triangle's
+// vertex nearest to the probe in `nearest_vertex`; on false `sp` holds
+// nothing of use (or the foot it declined, above or too deep: written in
+// place, so that an answer is never copied). With `trace`, records the
+// triangles visited and which of them would repeat the answer (see
+// WalkTrace).
 //
 // With `hint` (the last answer's weights on the start triangle) and
 // `max_move_from` (where the probe was then), a probe that may have crossed
@@ -431,10 +442,9 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
 // edge (within kInsideTolerance of it), where the neighbour's is the same
 // point up to round-off, or where the surface folds back within reach,
 // where it is the neighbour's foot, which passed the same tests.
-SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* max_move_from,
-                  TriangleFrame& frame, Index& nearest_vertex, WalkTrace* trace = nullptr,
-                  const Vec3* hint = nullptr) {
-  const SurfacePoint none;
+bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* max_move_from,
+          TriangleFrame& frame, Index& nearest_vertex, SurfacePoint& sp, WalkTrace* trace = nullptr,
+          const Vec3* hint = nullptr) {
   if (trace) {
     trace->count = 0;
     trace->repeatable = false;
@@ -445,17 +455,18 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
   // straight back, which a walk started on the last triangle takes once and
   // then stops at as this one did); no after a jump or out of steps (a new
   // walk has more).
-  auto end = [&](const SurfacePoint& sp, bool repeats, WalkEnd why) {
+  auto end = [&](bool repeats, WalkEnd why) {
     if (trace) {
       trace->repeatable = repeats;
       trace->end = why;
     }
-    return sp;
+    return why == WalkEnd::Answer;
   };
-  if (start >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
-      mesh.vertex_triangles.rows() != mesh.vertex_count() || !probe.allFinite())
-    return end(none, false, WalkEnd::BadInput);
-  const bool neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
+  // The mesh's tables, unless a walk on it has made the start's frame.
+  const bool prepared = frame.mesh == &mesh && frame.triangle == start;
+  if (!finite(probe) || (!prepared && (start >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
+                                           mesh.vertex_triangles.rows() != mesh.vertex_count())))
+    return end(false, WalkEnd::BadInput);
   Index t = start, previous = kNoIndex;
   // Steps: kMaxWalkSteps in all, except those that turn around a vertex of
   // valence above kFanValence (the edge crossed shares that vertex with the
@@ -471,12 +482,12 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
     const TriangleFrame& f = frame;
     // Jump test on the start triangle: moved farther than its longest edge.
     if (first && max_move_from) {
-      const double longest_sq = std::max({f.a11, f.a22, f.e3_sq});
+      const double longest_sq = f.longest_sq;
       const double move_sq = (probe - *max_move_from).squaredNorm();
-      if (!(move_sq <= longest_sq)) return end(none, false, WalkEnd::Jump);
+      if (!(move_sq <= longest_sq)) return end(false, WalkEnd::Jump);
       // The foot may have left: smallest weight times smallest height
       // (sqrt(det) / longest edge) within twice the move. Then the guess.
-      if (hint && neighbors) {
+      if (hint && f.neighbors) {
         const double low = hint->minCoeff();
         if (!(low * low * f.det > 4 * move_sq * longest_sq)) {
           const int k = guessed_exit(f, probe, *hint);
@@ -502,12 +513,12 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
         back();
         continue;
       }
-      return end(none, true, WalkEnd::Unsolved);
+      return end(true, WalkEnd::Unsolved);
     }
     if (b.minCoeff() >= -kInsideTolerance) {
       // Inside: the same weights and virtual vertex as locate_surface_point's.
       b = clamped_inside(b);
-      SurfacePoint sp = finish(f.p, f.n, t, b, probe, true);
+      finish(f.p, f.n, t, b, probe, true, sp);
       // Still below the surface (a probe that left is for the tree to place),
       // and within half the focal distance: 4 offset^2 |dn|^2 <= |dp|^2 on every edge.
       // On the guessed neighbour only an answer is taken: a decline there
@@ -521,13 +532,13 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
         back();
         continue;
       }
-      if (above) return end(none, true, WalkEnd::Above);
-      if (too_deep) return end(none, true, WalkEnd::TooDeep);
+      if (above) return end(true, WalkEnd::Above);
+      if (too_deep) return end(true, WalkEnd::TooDeep);
       // The triangle's vertex nearest to the probe.
       const Vec3 d = probe - f.p0;
       const double d0 = d.squaredNorm(), d1 = (d - f.e1).squaredNorm(), d2 = (d - f.e2).squaredNorm();
       nearest_vertex = d0 <= d1 && d0 <= d2 ? f.corners[0] : (d1 <= d2 ? f.corners[1] : f.corners[2]);
-      return end(sp, true, WalkEnd::Answer);
+      return end(true, WalkEnd::Answer);
     }
     if (guessed_from != kNoIndex) {
       back();
@@ -537,12 +548,12 @@ SurfacePoint walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start,
     // step straight back means the solution sits in no triangle here.
     const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
     const Index c1 = f.corners[(k + 1) % 3], c2 = f.corners[(k + 2) % 3];
-    const Index next = neighbors ? mesh.triangle_neighbors[t][k] : across_edge(mesh, t, c1, c2);
-    if (next == kNoIndex) return end(none, true, WalkEnd::Border);
-    if (next == previous) return end(none, true, WalkEnd::SteppedBack);
+    const Index next = f.neighbors ? mesh.triangle_neighbors[t][k] : across_edge(mesh, t, c1, c2);
+    if (next == kNoIndex) return end(true, WalkEnd::Border);
+    if (next == previous) return end(true, WalkEnd::SteppedBack);
     const Index pivot = c1 == edge_a || c1 == edge_b ? c1 : (c2 == edge_a || c2 == edge_b ? c2 : kNoIndex);
     const bool fan = pivot != kNoIndex && mesh.vertex_triangles.row(pivot).size() > kFanValence;
-    if (fan ? ++fan_steps > kMaxFanSteps : ++steps >= kMaxWalkSteps) return end(none, false, WalkEnd::OutOfSteps);
+    if (fan ? ++fan_steps > kMaxFanSteps : ++steps >= kMaxWalkSteps) return end(false, WalkEnd::OutOfSteps);
     edge_a = c1;
     edge_b = c2;
     previous = t;
@@ -639,30 +650,33 @@ SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& pro
 SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle) {
   Index unused = kNoIndex;
   TriangleFrame frame;
-  return walk(mesh, probe, start_triangle, nullptr, frame, unused);
+  SurfacePoint sp;
+  return walk(mesh, probe, start_triangle, nullptr, frame, unused, sp) ? sp : SurfacePoint{};
 }
 
 SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle,
                                 WalkTrace& trace) {
   Index unused = kNoIndex;
   TriangleFrame frame;
-  return walk(mesh, probe, start_triangle, nullptr, frame, unused, &trace);
+  SurfacePoint sp;
+  return walk(mesh, probe, start_triangle, nullptr, frame, unused, sp, &trace) ? sp : SurfacePoint{};
 }
 
 namespace {
 
 // The walk of the contact queries from `start` (with the jump test from
-// `jump_from` when given), not yet committed to the cursor.
-SurfacePoint walk_from(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
-                       ContactCursor& cursor, Index& nearest, WalkTrace* trace = nullptr) {
+// `jump_from` when given) into `sp`, not yet committed to the cursor.
+bool walk_from(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
+               ContactCursor& cursor, Index& nearest, SurfacePoint& sp, WalkTrace* trace = nullptr) {
   const Vec3* hint = start == cursor.triangle && cursor.at_foot ? &cursor.barycentric : nullptr;
-  return walk(mesh, probe, start, jump_from, cursor.frame, nearest, trace, hint);
+  return walk(mesh, probe, start, jump_from, cursor.frame, nearest, sp, trace, hint);
 }
 
-// Fills `ans` (path Walk) and the cursor with a walk's answer.
-void commit_walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, const SurfacePoint& sp, Index nearest,
-                 ContactCursor& cursor, ContactAnswer& ans) {
-  ans.surface = sp;
+// Completes `ans` (path Walk), whose surface holds a walk's answer, and
+// moves the cursor there.
+void commit_walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index nearest, ContactCursor& cursor,
+                 ContactAnswer& ans) {
+  const SurfacePoint& sp = ans.surface;
   ans.nearest_vertex = nearest;
   ans.path = ContactPath::Walk;
   cursor.triangle = sp.triangle;
@@ -674,10 +688,8 @@ void commit_walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, const Surface
   // stepping across costs no wait on memory. No effect on results.
   const Vec3& b = sp.barycentric;
   const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
-  const Index next = mesh.triangle_neighbors.size() == mesh.triangle_count()
-                         ? mesh.triangle_neighbors[cursor.triangle][k]
-                         : kNoIndex;
-  if (next < mesh.triangle_count()) {
+  const Index next = cursor.frame.neighbors ? mesh.triangle_neighbors[cursor.triangle][k] : kNoIndex;
+  if (next != kNoIndex) {
     if (next == cursor.ahead) {
       const Index far = mesh.triangles[next][0] + mesh.triangles[next][1] + mesh.triangles[next][2] -
                         cursor.frame.corners[(k + 1) % 3] - cursor.frame.corners[(k + 2) % 3];
@@ -696,9 +708,8 @@ void commit_walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, const Surface
 bool walk_answer(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
                  ContactCursor& cursor, ContactAnswer& ans) {
   Index nearest = kNoIndex;
-  const SurfacePoint sp = walk_from(mesh, probe, start, jump_from, cursor, nearest);
-  if (sp.triangle == kNoIndex) return false;
-  commit_walk(mesh, probe, sp, nearest, cursor, ans);
+  if (!walk_from(mesh, probe, start, jump_from, cursor, nearest, ans.surface)) return false;
+  commit_walk(mesh, probe, nearest, cursor, ans);
   return true;
 }
 
@@ -707,7 +718,7 @@ bool walk_answer(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, 
 ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact) {
   ContactAnswer ans;
-  if (!probe.allFinite()) return ans;
+  if (!finite(probe)) return ans;
   // In contact: walk from the last triangle (declines on a jump).
   if (in_contact && cursor.triangle < mesh.triangle_count()) {
     if (walk_answer(mesh, probe, cursor.triangle, &cursor.probe, cursor, ans)) return ans;
@@ -716,7 +727,10 @@ ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // surface point around it.
   const NearestVertex nv = tree.nearest_local(probe, cursor.tree);
   cursor.triangle = kNoIndex;
-  if (nv.vertex == kNoIndex || nv.vertex >= mesh.vertex_count()) return ContactAnswer{};
+  if (nv.vertex == kNoIndex || nv.vertex >= mesh.vertex_count()) {
+    ans = ContactAnswer{};
+    return ans;
+  }
   ans.nearest_vertex = nv.vertex;
   ans.surface = locate_surface_point(mesh, probe, nv.vertex);
   ans.path = ContactPath::Tree;
@@ -844,19 +858,21 @@ SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, 
 
 ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact) {
-  if (!probe.allFinite()) return ContactAnswer{};
+  // One answer, returned from every path (so that it is built in place).
+  ContactAnswer ans;
+  if (!finite(probe)) return ans;
   if (!in_contact || cursor.triangle >= mesh.triangle_count()) {
     // Still inside the ball around the last answer above the surface: still
     // above it, no search.
     if (!in_contact && cursor.clearance > 0 && (probe - cursor.clear_from).squaredNorm() < cursor.clearance * cursor.clearance) {
-      ContactAnswer clear;
-      clear.surface = cursor.clear_surface;
-      clear.surface.offset = (probe - clear.surface.point).dot(clear.surface.normal);
-      clear.nearest_vertex = cursor.clear_vertex;
-      clear.path = ContactPath::Clear;
-      return clear;
+      ans.surface = cursor.clear_surface;
+      ans.surface.offset = (probe - ans.surface.point).dot(ans.surface.normal);
+      ans.nearest_vertex = cursor.clear_vertex;
+      ans.path = ContactPath::Clear;
+      return ans;
     }
-    return query_contact(mesh, tree, probe, cursor, false);
+    ans = query_contact(mesh, tree, probe, cursor, false);
+    return ans;
   }
   // The proxy before this query, and how far a walk's answer may be from it:
   // within half the focal distance the foot of the interpolated normal moves
@@ -864,23 +880,28 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // foot (another sheet, a fold, another root beyond a focal point).
   const Index proxy_triangle = cursor.triangle;
   Vec3 proxy_weights = cursor.barycentric;
-  if (!proxy_weights.allFinite() || proxy_weights.minCoeff() < 0 || !(std::abs(proxy_weights.sum() - 1) <= 1e-9))
+  // (A weight not finite makes the sum NaN or infinite, or the least negative.)
+  if (proxy_weights.minCoeff() < 0 || !(std::abs(proxy_weights.sum() - 1) <= 1e-9))
     proxy_weights = Vec3::Constant(1.0 / 3);
   const Vec3 last_probe = cursor.probe;
   const mesh::Triangle& pt = mesh.triangles[proxy_triangle];
   const Vec3 proxy_point = proxy_weights[0] * mesh.positions[pt[0]] + proxy_weights[1] * mesh.positions[pt[1]] +
                            proxy_weights[2] * mesh.positions[pt[2]];
-  const double reach = 2 * (probe - last_probe).norm() + kProxyTolerance;
+  // Compared squared first: |a|^2 <= 4 |m|^2 gives |a| <= 2 |m| <= reach
+  // exactly in floating point (sqrt is correctly rounded and monotone, and
+  // sqrt(4 x) = 2 sqrt(x)), so the square roots are taken only otherwise.
+  const double move_sq = (probe - last_probe).squaredNorm();
   auto continuous = [&](const SurfacePoint& sp) {
-    return sp.triangle != kNoIndex && (sp.point - proxy_point).norm() <= reach;
+    const double gap_sq = (sp.point - proxy_point).squaredNorm();
+    return gap_sq <= 4 * move_sq || std::sqrt(gap_sq) <= 2 * std::sqrt(move_sq) + kProxyTolerance;
   };
-  ContactAnswer ans;
-  // The walk from the last triangle, as query_contact's.
+  // The walk from the last triangle, as query_contact's, its answer (or a
+  // foot it declined) in ans.surface.
   Index nearest = kNoIndex;
   WalkTrace trace;
-  SurfacePoint sp = walk_from(mesh, probe, proxy_triangle, &last_probe, cursor, nearest, &trace);
-  if (continuous(sp)) {
-    commit_walk(mesh, probe, sp, nearest, cursor, ans);
+  const bool answered = walk_from(mesh, probe, proxy_triangle, &last_probe, cursor, nearest, ans.surface, &trace);
+  if (answered && continuous(ans.surface)) {
+    commit_walk(mesh, probe, nearest, cursor, ans);
     return ans;
   }
   // Declined. Where the walk answered, only farther from the proxy than
@@ -902,8 +923,8 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
     const Vec3 n = pn / pn_len;
     const Vec3 motion = probe - last_probe;
     const double across = (motion - motion.dot(n) * n).norm();
-    if (sp.triangle != kNoIndex) {
-      const Vec3 to_foot = sp.point - proxy_point;
+    if (answered) {
+      const Vec3 to_foot = ans.surface.point - proxy_point;
       const double gap = to_foot.norm();
       if (gap > 0) move = (std::min(gap, kProxyChase * across) / gap) * to_foot;
     } else {
@@ -916,16 +937,18 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
     }
   }
   const SurfacePoint slid = slide_surface_point(mesh, proxy_triangle, proxy_weights, move, probe);
-  if (slid.triangle == kNoIndex) return query_contact(mesh, tree, probe, cursor, false);  // unusable mesh data
+  if (slid.triangle == kNoIndex) {  // unusable mesh data
+    ans = query_contact(mesh, tree, probe, cursor, false);
+    return ans;
+  }
   // Near the slid point the walk may answer again (after a jump, or once the
   // probe is back within half the focal distance). Where the first walk
   // passed through the slid triangle and stopped for what it found, a walk
   // from there would end as it did, with an answer not taken above: skipped
   // (on the cingulate gyrus, 7 in 10 of these walks, each several triangles).
   if (slid.triangle != proxy_triangle && !trace.repeats_from(slid.triangle)) {
-    sp = walk_from(mesh, probe, slid.triangle, nullptr, cursor, nearest);
-    if (continuous(sp)) {
-      commit_walk(mesh, probe, sp, nearest, cursor, ans);
+    if (walk_from(mesh, probe, slid.triangle, nullptr, cursor, nearest, ans.surface) && continuous(ans.surface)) {
+      commit_walk(mesh, probe, nearest, cursor, ans);
       return ans;
     }
   }
@@ -939,7 +962,8 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
     const ContactAnswer fresh = query_contact(mesh, tree, probe, probe_cursor, false);
     if (fresh.surface.triangle != kNoIndex && fresh.surface.offset < 0) {
       cursor = probe_cursor;
-      return fresh;
+      ans = fresh;
+      return ans;
     }
     cursor.tree = probe_cursor.tree;
   }

@@ -120,7 +120,8 @@ SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe
 /// One triangle prepared for the interpolated-normal equation: its corners
 /// and per-triangle constants, so a walk that stays on a triangle does not
 /// rebuild them every tick. Filled by the walk; valid for `mesh` (unchanged)
-/// and `triangle`.
+/// and `triangle`. A frame is made only on a mesh the walk has checked, so
+/// a walk that starts on the frame's triangle does not check it again.
 struct TriangleFrame {
   const mesh::SurfaceMesh* mesh = nullptr;
   Index triangle = kNoIndex;
@@ -135,9 +136,11 @@ struct TriangleFrame {
   double inv_nk0 = 0;                      ///< 1 / nk0 (1/m^2), 0 when nk0 is 0
   double a11 = 0, a12 = 0, a22 = 0, det = 0;  ///< edge Gram matrix (m^2) and its determinant (m^4)
   double e3_sq = 0;                        ///< |e2 - e1|^2, m^2
+  double longest_sq = 0;                   ///< the longest edge squared, m^2
   double root_scale = 0;                   ///< sqrt(a11 + a22), m: the solver's length scale
   double f1_sq = 0, f2_sq = 0, f3_sq = 0;  ///< |f1|^2, |f2|^2, |f2 - f1|^2
   bool flat = false;                       ///< all three normals equal
+  bool neighbors = false;                  ///< the mesh has its triangle_neighbors table
 };
 
 /// Per-probe memory of query_contact. Plain data; value-initialised means
