@@ -89,6 +89,30 @@ void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
   f.f3_sq = (f.f2 - f.f1).squaredNorm();
 }
 
+// The solve of solve_interpolated_normal for equal normals (flat
+// interpolation): u and v of the projection along n0. Kept out of line: the
+// walk inlines the curved case, which is the common one.
+[[gnu::noinline]] bool solve_flat(const TriangleFrame& f, const Vec3& d, double scale, double& u, double& v) {
+  // Equal normals: the projection along n0 onto the plane, by the 2x2
+  // normal equations and the offset along n0.
+  const double r1 = d.dot(f.e1), r2 = d.dot(f.e2);
+  u = (f.a22 * r1 - f.a12 * r2) / f.det;
+  v = (f.a11 * r2 - f.a12 * r1) / f.det;
+  const double nn = f.n0.squaredNorm();
+  if (!(nn > 0)) return false;
+  const double t = (d - u * f.e1 - v * f.e2).dot(f.n0) / nn;
+  const Vec3 residual = u * f.e1 + v * f.e2 + t * f.n0 - d;
+  if (residual.squaredNorm() > 1e-28 * scale) {
+    // Oblique normals: solve d = u e1 + v e2 + t n0 by Cramer's rule.
+    const double den = f.nk0;
+    if (!(std::abs(den) > 0)) return false;
+    const Eigen::Vector2d uv = cramer_weights_scaled(d, f.e1, f.e2, f.n0);
+    u = uv[0] / den;
+    v = uv[1] / den;
+  }
+  return true;
+}
+
 // Solves P = C(b) + t N(b) for b = (1-u-v, u, v) and t, where C and N are the
 // linearly interpolated positions and (unnormalised) normals of the triangle.
 // With d = P - p0 it reads d - t n0 = u (e1 + t f1) + v (e2 + t f2): for
@@ -103,29 +127,13 @@ void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
 // projection, solved directly. Returns false when the system is degenerate or the residual stays above
 // round-off. The answer depends only on the triangle and the probe (no
 // history), so every path that solves the same triangle gets the same bits.
-bool solve_interpolated_normal(const TriangleFrame& f, const Vec3& probe, Vec3& b) {
+[[gnu::always_inline]] inline bool solve_interpolated_normal(const TriangleFrame& f, const Vec3& probe, Vec3& b) {
   if (!(f.det > 0)) return false;
   const Vec3 d = probe - f.p0;
   const double scale = f.a11 + f.a22;  // m^2
   double u = 0, v = 0;
   if (f.flat) {
-    // Equal normals: the projection along n0 onto the plane, by the 2x2
-    // normal equations and the offset along n0.
-    const double r1 = d.dot(f.e1), r2 = d.dot(f.e2);
-    u = (f.a22 * r1 - f.a12 * r2) / f.det;
-    v = (f.a11 * r2 - f.a12 * r1) / f.det;
-    const double nn = f.n0.squaredNorm();
-    if (!(nn > 0)) return false;
-    const double t = (d - u * f.e1 - v * f.e2).dot(f.n0) / nn;
-    const Vec3 residual = u * f.e1 + v * f.e2 + t * f.n0 - d;
-    if (residual.squaredNorm() > 1e-28 * scale) {
-      // Oblique normals: solve d = u e1 + v e2 + t n0 by Cramer's rule.
-      const double den = f.nk0;
-      if (!(std::abs(den) > 0)) return false;
-      const Eigen::Vector2d uv = cramer_weights_scaled(d, f.e1, f.e2, f.n0);
-      u = uv[0] / den;
-      v = uv[1] / den;
-    }
+    if (!solve_flat(f, d, scale, u, v)) return false;
   } else {
     // Newton on the cubic F(t) = c0 + c1 t + c2 t^2 + c3 t^3.
     const double c0 = d.dot(f.k0), c1 = d.dot(f.k1) - f.nk0, c2 = d.dot(f.k2) - f.nk1, c3 = -f.nk2;
@@ -353,8 +361,8 @@ void visit(const mesh::SurfaceMesh& mesh, Index v, bool ring, bool wide, F&& f) 
 // The virtual vertex on triangle t (corner positions p, m, and unit normals
 // nrm) at weights b: interpolated point and unit normal, and the offset of
 // the probe along that normal.
-void finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec3& b, const Vec3& probe, bool inside,
-            SurfacePoint& sp) {
+[[gnu::always_inline]] inline void finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec3& b,
+                                          const Vec3& probe, bool inside, SurfacePoint& sp) {
   sp.triangle = t;
   sp.barycentric = b;
   sp.inside = inside;
