@@ -422,8 +422,8 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
   return -1;
 }
 
-// The walk of walk_surface_point, preparing each triangle in `frame` (kept
-// when it already holds the start triangle of this mesh). With
+// The walk of walk_surface_point, preparing each triangle in `frames`
+// (where one already prepared for this mesh is kept). With
 // `max_move_from` set, it first declines when the probe is farther from that
 // point than the longest edge of the start triangle (a jump: the tree is the
 // better start). Returns true with the answer in `sp` and the triangle's
@@ -451,7 +451,7 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
 // point up to round-off, or where the surface folds back within reach,
 // where it is the neighbour's foot, which passed the same tests.
 bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* max_move_from,
-          TriangleFrame& frame, Index& nearest_vertex, SurfacePoint& sp, WalkTrace* trace = nullptr,
+          FrameCache& frames, Index& nearest_vertex, SurfacePoint& sp, WalkTrace* trace = nullptr,
           const Vec3* hint = nullptr) {
   if (trace) {
     trace->count = 0;
@@ -471,8 +471,8 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
     return why == WalkEnd::Answer;
   };
   // The mesh's tables, unless a walk on it has made the start's frame.
-  const bool prepared = frame.mesh == &mesh && frame.triangle == start;
-  if (!finite(probe) || (!prepared && (start >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
+  int slot = frames.find(mesh, start);
+  if (!finite(probe) || (slot < 0 && (start >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
                                            mesh.vertex_triangles.rows() != mesh.vertex_count())))
     return end(false, WalkEnd::BadInput);
   Index t = start, previous = kNoIndex;
@@ -486,8 +486,14 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
   Index guessed_from = kNoIndex;
   for (bool first = true;; first = false) {
     if (trace && trace->count < WalkTrace::kCapacity) trace->triangles[trace->count++] = t;
-    if (frame.mesh != &mesh || frame.triangle != t) make_frame(mesh, t, frame);
-    const TriangleFrame& f = frame;
+    if (!first || slot < 0) slot = frames.find(mesh, t);
+    if (slot < 0) {
+      slot = frames.next;
+      frames.next = (frames.next + 1) % FrameCache::kSize;
+      make_frame(mesh, t, frames.slot[slot]);
+    }
+    frames.last = slot;
+    const TriangleFrame& f = frames.slot[slot];
     // Jump test on the start triangle: moved farther than its longest edge.
     if (first && max_move_from) {
       const double longest_sq = f.longest_sq;
@@ -657,17 +663,17 @@ SurfacePoint locate_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& pro
 
 SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle) {
   Index unused = kNoIndex;
-  TriangleFrame frame;
+  FrameCache frames;
   SurfacePoint sp;
-  return walk(mesh, probe, start_triangle, nullptr, frame, unused, sp) ? sp : SurfacePoint{};
+  return walk(mesh, probe, start_triangle, nullptr, frames, unused, sp) ? sp : SurfacePoint{};
 }
 
 SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start_triangle,
                                 WalkTrace& trace) {
   Index unused = kNoIndex;
-  TriangleFrame frame;
+  FrameCache frames;
   SurfacePoint sp;
-  return walk(mesh, probe, start_triangle, nullptr, frame, unused, sp, &trace) ? sp : SurfacePoint{};
+  return walk(mesh, probe, start_triangle, nullptr, frames, unused, sp, &trace) ? sp : SurfacePoint{};
 }
 
 namespace {
@@ -677,7 +683,7 @@ namespace {
 bool walk_from(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
                ContactCursor& cursor, Index& nearest, SurfacePoint& sp, WalkTrace* trace = nullptr) {
   const Vec3* hint = start == cursor.triangle && cursor.at_foot ? &cursor.barycentric : nullptr;
-  return walk(mesh, probe, start, jump_from, cursor.frame, nearest, sp, trace, hint);
+  return walk(mesh, probe, start, jump_from, cursor.frames, nearest, sp, trace, hint);
 }
 
 // Completes `ans` (path Walk), whose surface holds a walk's answer, and
@@ -696,11 +702,12 @@ void commit_walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index nearest
   // stepping across costs no wait on memory. No effect on results.
   const Vec3& b = sp.barycentric;
   const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
-  const Index next = cursor.frame.neighbors ? mesh.triangle_neighbors[cursor.triangle][k] : kNoIndex;
+  const TriangleFrame& f = cursor.frames.slot[cursor.frames.last];  // the answer's triangle
+  const Index next = f.neighbors ? mesh.triangle_neighbors[cursor.triangle][k] : kNoIndex;
   if (next != kNoIndex) {
     if (next == cursor.ahead) {
       const Index far = mesh.triangles[next][0] + mesh.triangles[next][1] + mesh.triangles[next][2] -
-                        cursor.frame.corners[(k + 1) % 3] - cursor.frame.corners[(k + 2) % 3];
+                        f.corners[(k + 1) % 3] - f.corners[(k + 2) % 3];
       if (far < mesh.vertex_count()) {
         __builtin_prefetch(&mesh.positions[far]);
         __builtin_prefetch(&mesh.normals[far]);

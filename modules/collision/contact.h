@@ -143,6 +143,26 @@ struct TriangleFrame {
   bool neighbors = false;                  ///< the mesh has its triangle_neighbors table
 };
 
+/// The walk's last few triangles, prepared (TriangleFrame). A walk that
+/// keeps coming back to the same triangles, as the proxy's does each tick
+/// while the probe is held deep (it visits two or three before it
+/// declines), prepares each once. Replaced in turn; `last` is the slot of
+/// the frame the walk ended on.
+struct FrameCache {
+  static constexpr int kSize = 4;
+  TriangleFrame slot[kSize];
+  int last = 0;  ///< slot of the walk's last triangle
+  int next = 0;  ///< slot to replace next
+
+  /// The slot of the prepared frame of triangle t of `mesh`, or -1.
+  int find(const mesh::SurfaceMesh& mesh, Index t) const {
+    if (slot[last].triangle == t && slot[last].mesh == &mesh) return last;
+    for (int i = 0; i < kSize; ++i)
+      if (slot[i].triangle == t && slot[i].mesh == &mesh) return i;
+    return -1;
+  }
+};
+
 /// Per-probe memory of query_contact. Plain data; value-initialised means
 /// "no previous answer".
 struct ContactCursor {
@@ -158,7 +178,7 @@ struct ContactCursor {
   /// went; false after the proxy's answer (the probe deeper than half the
   /// focal distance, not on the normal at the proxy).
   bool at_foot = false;
-  TriangleFrame frame;        ///< the walk's last triangle, prepared
+  FrameCache frames;          ///< the walk's last triangles, prepared
   /// The triangle across the edge of `triangle` nearest to the last answer
   /// (where a sliding probe goes next); its data is fetched ahead of time.
   Index ahead = kNoIndex;
