@@ -263,5 +263,65 @@ TEST(Proxy, NeverCrossesToTheOtherSide) {
   EXPECT_GT(plain_lost, 0);  // the check can fail: without the proxy the contact goes
 }
 
+TEST(Proxy, ThePreparedTrianglesTheCursorKeepsGiveTheAnswersOfFreshOnes) {
+  // A small sphere (area-weighted normals, so its focal points spread about
+  // the centre) pressed 0.7 R deep and slid along a wandering path there,
+  // then raised to 0.1 R and slid on: deep, the proxy's walk visits several
+  // triangles every tick. One cursor keeps its prepared triangles
+  // (FrameCache) from tick to tick; the other has them dropped before every
+  // query, so that each is prepared again from the mesh. Every answer must
+  // have the same bits, on the proxy's path and on the walk's.
+  const double r = 0.005;
+  const auto m = mesh::make_sphere(20000, r);
+  const VertexTree tree(m.positions);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> turn(-0.3, 0.3);
+  Vec3 dir = Vec3(0.2, 0.4, 0.9).normalized();
+  Vec3 heading = dir.unitOrthogonal();
+  ContactCursor kept, fresh;
+  bool kept_in = false, fresh_in = false;
+  int proxies = 0, walks = 0, several = 0;
+  constexpr int kPress = 100, kDeep = 400, kRise = 50, kShallow = 200;
+  for (int k = 0; k <= kPress + kDeep + kRise + kShallow; ++k) {
+    double d = 0;
+    if (k <= kPress) {
+      d = -1e-5 + (0.7 * r + 1e-5) * k / kPress;
+    } else {
+      const int j = k - kPress - kDeep;
+      d = j <= 0 ? 0.7 * r : (j <= kRise ? 0.7 * r - 0.6 * r * j / kRise : 0.1 * r);
+      // 10 um of surface a tick, turning at random.
+      heading = Eigen::AngleAxisd(turn(rng), dir) * heading;
+      dir = (dir + (10e-6 / r) * heading).normalized();
+      heading = (heading - heading.dot(dir) * dir).normalized();
+    }
+    const Vec3 probe = (r - d) * dir;
+    fresh.frames = FrameCache{};
+    const ContactAnswer a = track_contact(m, tree, probe, kept, kept_in);
+    const ContactAnswer b = track_contact(m, tree, probe, fresh, fresh_in);
+    ASSERT_EQ(a.surface.triangle, b.surface.triangle) << k;
+    ASSERT_EQ(a.path, b.path) << k;
+    ASSERT_EQ(a.nearest_vertex, b.nearest_vertex) << k;
+    for (int i = 0; i < 3; ++i) {
+      ASSERT_EQ(a.surface.barycentric[i], b.surface.barycentric[i]) << k;
+      ASSERT_EQ(a.surface.point[i], b.surface.point[i]) << k;
+      ASSERT_EQ(a.surface.normal[i], b.surface.normal[i]) << k;
+    }
+    ASSERT_EQ(a.surface.offset, b.surface.offset) << k;
+    kept_in = a.surface.triangle != kNoIndex && a.surface.offset < 0;
+    fresh_in = b.surface.triangle != kNoIndex && b.surface.offset < 0;
+    proxies += a.path == ContactPath::Proxy;
+    walks += a.path == ContactPath::Walk;
+    // Triangles the kept cursor holds prepared after this tick.
+    int held = 0;
+    for (const TriangleFrame& f : kept.frames.slot) held += f.mesh == &m;
+    several += a.path == ContactPath::Proxy && held >= 2;
+  }
+  // The check covers both paths, and ticks on which the proxy's walk left
+  // more than one triangle prepared for the next.
+  EXPECT_GT(proxies, 200);
+  EXPECT_GT(walks, 100);
+  EXPECT_GT(several, 100);
+}
+
 }  // namespace
 }  // namespace palpa::collision
