@@ -486,7 +486,7 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
   Index guessed_from = kNoIndex;
   for (bool first = true;; first = false) {
     if (trace && trace->count < WalkTrace::kCapacity) trace->triangles[trace->count++] = t;
-    if (!first || slot < 0) slot = frames.find(mesh, t);
+    if (!first) slot = frames.find(mesh, t);  // (the start's was looked up above)
     if (slot < 0) {
       slot = frames.next;
       frames.next = (frames.next + 1) % FrameCache::kSize;
