@@ -23,6 +23,13 @@ inline bool finite(const Vec3& v) {
   return (std::abs(v[0]) <= kMax) & (std::abs(v[1]) <= kMax) & (std::abs(v[2]) <= kMax);
 }
 
+// `b` when it is barycentric weights (none negative, sum 1 within 1e-9),
+// else the centroid's. A weight that is not finite fails the test: it makes
+// the sum NaN or infinite, or the least weight negative.
+inline Vec3 weights_or_centroid(const Vec3& b) {
+  return b.minCoeff() < 0 || !(std::abs(b.sum() - 1) <= 1e-9) ? Vec3::Constant(1.0 / 3) : b;
+}
+
 // Weights of a solution inside within kInsideTolerance, clamped to the
 // triangle: the common case, all weights already >= 0 (they sum to 1 up to
 // round-off from b0 = 1 - u - v), is kept as solved; only a weight just
@@ -373,12 +380,17 @@ void visit(const mesh::SurfaceMesh& mesh, Index v, bool ring, bool wide, F&& f) 
   sp.offset = (probe - sp.point).dot(sp.normal);
 }
 
-SurfacePoint finish(const mesh::SurfaceMesh& mesh, Index t, const Vec3& b, const Vec3& probe, bool inside) {
+[[gnu::always_inline]] inline void finish(const mesh::SurfaceMesh& mesh, Index t, const Vec3& b, const Vec3& probe,
+                                          bool inside, SurfacePoint& sp) {
   const mesh::Triangle& tri = mesh.triangles[t];
   const Vec3 p[3] = {mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
   const Vec3 n[3] = {mesh.normals[tri[0]], mesh.normals[tri[1]], mesh.normals[tri[2]]};
-  SurfacePoint sp;
   finish(p, n, t, b, probe, inside, sp);
+}
+
+SurfacePoint finish(const mesh::SurfaceMesh& mesh, Index t, const Vec3& b, const Vec3& probe, bool inside) {
+  SurfacePoint sp;
+  finish(mesh, t, b, probe, inside, sp);
   return sp;
 }
 
@@ -779,8 +791,7 @@ namespace {
     return;
   }
   // Weights on the start triangle: the given ones when they are weights.
-  Vec3 b = barycentric;
-  if (!b.allFinite() || b.minCoeff() < 0 || !(std::abs(b.sum() - 1) <= 1e-9)) b = Vec3::Constant(1.0 / 3);
+  Vec3 b = weights_or_centroid(barycentric);
   b /= b.sum();
   const bool neighbors = mesh.triangle_neighbors.size() == mesh.triangle_count();
   Index t = triangle, previous = kNoIndex;
@@ -874,10 +885,7 @@ namespace {
     t = next;
     if (turned_back) break;
   }
-  const mesh::Triangle& tri = mesh.triangles[t];
-  const Vec3 p[3] = {mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]};
-  const Vec3 n[3] = {mesh.normals[tri[0]], mesh.normals[tri[1]], mesh.normals[tri[2]]};
-  finish(p, n, t, b, probe, true, sp);
+  finish(mesh, t, b, probe, true, sp);
 }
 
 }  // namespace
@@ -912,10 +920,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // at most twice as far as the probe, so an answer farther away is another
   // foot (another sheet, a fold, another root beyond a focal point).
   const Index proxy_triangle = cursor.triangle;
-  Vec3 proxy_weights = cursor.barycentric;
-  // (A weight not finite makes the sum NaN or infinite, or the least negative.)
-  if (proxy_weights.minCoeff() < 0 || !(std::abs(proxy_weights.sum() - 1) <= 1e-9))
-    proxy_weights = Vec3::Constant(1.0 / 3);
+  const Vec3 proxy_weights = weights_or_centroid(cursor.barycentric);
   const Vec3 last_probe = cursor.probe;
   const mesh::Triangle& pt = mesh.triangles[proxy_triangle];
   const Vec3 proxy_point = proxy_weights[0] * mesh.positions[pt[0]] + proxy_weights[1] * mesh.positions[pt[1]] +
