@@ -149,12 +149,26 @@ void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
     // |F'' / 2F'| dt^2 for Newton near a simple root, is at round-off level;
     // near a double root (the probe near a focal point of the triangle) it
     // converges slowly, and the residual test below decides.
+    //
+    // A step that crosses an extremum of F (F' changes sign) while F keeps
+    // its sign has passed the bottom of a valley of |F| that does not reach
+    // zero: the root nearest the surface, which the solve looks for, is not
+    // there (the probe is past the fold of the triangle's normals, where two
+    // roots meet and vanish). Newton then bounces around that valley, and
+    // where it converges at all (after 6 to 16 steps on the bench's organs,
+    // where the others take 1 to 5) it is onto a root on another sheet, by
+    // chance. So the solve stops there with no solution, as it does after
+    // kNewtonIterations steps, and a failing solve costs 1 to 4 steps, not 16.
     double t = c0 * f.inv_nk0;  // 0 where nk0 is 0
     const double tol = 1e-14 * f.root_scale;  // m (t is in m for unit normals)
+    double F_before = 0, dF_before = 0;       // at the step before (none yet: 0)
     for (int it = 0; it < kNewtonIterations; ++it) {
       const double F = ((c3 * t + c2) * t + c1) * t + c0;
       const double dF = (3 * c3 * t + 2 * c2) * t + c1;
       if (!(std::abs(dF) > 0) || !std::isfinite(dF)) return false;
+      if (F * F_before > 0 && dF * dF_before < 0) return false;
+      F_before = F;
+      dF_before = dF;
       const double dt = F / dF;
       t -= dt;
       if (!std::isfinite(t)) return false;
