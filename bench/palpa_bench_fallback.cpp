@@ -19,6 +19,7 @@ const char* walk_end_name(std::size_t end) {
     case collision::WalkEnd::Border: return "border";
     case collision::WalkEnd::SteppedBack: return "stepped back";
     case collision::WalkEnd::OutOfSteps: return "out of steps";
+    case collision::WalkEnd::OutOfReach: return "out of reach";
   }
   return "?";
 }

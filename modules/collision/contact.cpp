@@ -448,6 +448,20 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
   return -1;
 }
 
+// Where a walk's answer has to be for its caller to take it: within
+// `radius` (m) of `center`. A triangle is beyond it when its first corner is
+// farther than radius plus its longest edge: every point of the triangle is
+// within the longest edge of that corner. Compared squared without a root:
+// (r + l)^2 <= 2 r^2 + 2 l^2, with 1e-9 more for round-off, so a triangle
+// called beyond is beyond.
+struct Reach {
+  Vec3 center;
+  double radius_sq;  // m^2
+  bool beyond(const TriangleFrame& f) const {
+    return (f.p0 - center).squaredNorm() > (2 + 2e-9) * (radius_sq + f.longest_sq);
+  }
+};
+
 // The walk of walk_surface_point, preparing each triangle in `frames`
 // (where one already prepared for this mesh is kept). With
 // `max_move_from` set, it first declines when the probe is farther from that
@@ -476,9 +490,13 @@ int guessed_exit(const TriangleFrame& f, const Vec3& probe, const Vec3& hint) {
 // edge (within kInsideTolerance of it), where the neighbour's is the same
 // point up to round-off, or where the surface folds back within reach,
 // where it is the neighbour's foot, which passed the same tests.
+//
+// With `reach`, the walk stops (declines) on the first triangle beyond it,
+// before solving there: its caller takes only an answer within reach, and a
+// walk that has left the reach would have to turn back to give one.
 bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* max_move_from,
           FrameCache& frames, Index& nearest_vertex, SurfacePoint& sp, WalkTrace* trace = nullptr,
-          const Vec3* hint = nullptr) {
+          const Vec3* hint = nullptr, const Reach* reach = nullptr) {
   if (trace) {
     trace->count = 0;
     trace->repeatable = false;
@@ -520,6 +538,7 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
     }
     frames.last = slot;
     const TriangleFrame& f = frames.slot[slot];
+    if (reach && reach->beyond(f)) return end(false, WalkEnd::OutOfReach);
     // Jump test on the start triangle: moved farther than its longest edge.
     if (first && max_move_from) {
       const double longest_sq = f.longest_sq;
@@ -707,9 +726,10 @@ namespace {
 // The walk of the contact queries from `start` (with the jump test from
 // `jump_from` when given) into `sp`, not yet committed to the cursor.
 bool walk_from(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const Vec3* jump_from,
-               ContactCursor& cursor, Index& nearest, SurfacePoint& sp, WalkTrace* trace = nullptr) {
+               ContactCursor& cursor, Index& nearest, SurfacePoint& sp, WalkTrace* trace = nullptr,
+               const Reach* reach = nullptr) {
   const Vec3* hint = start == cursor.triangle && cursor.at_foot ? &cursor.barycentric : nullptr;
-  return walk(mesh, probe, start, jump_from, cursor.frames, nearest, sp, trace, hint);
+  return walk(mesh, probe, start, jump_from, cursor.frames, nearest, sp, trace, hint, reach);
 }
 
 // Completes `ans` (path Walk), whose surface holds a walk's answer, and
@@ -999,8 +1019,16 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // passed through the slid triangle and stopped for what it found, a walk
   // from there would end as it did, with an answer not taken above: skipped
   // (on the cingulate gyrus, 7 in 10 of these walks, each several triangles).
+  // Only an answer within 2 |move| + kProxyTolerance of the proxy is taken
+  // (continuous), so this walk stops once it is on a triangle out of that
+  // reach (squared: (2 m + e)^2 <= 8 m^2 + 2 e^2). On the cingulate gyrus,
+  // where a quarter of the vertices have more than kFanValence triangles
+  // (steps around them do not count towards kMaxWalkSteps), it could
+  // otherwise go on for ten triangles or more and end as a decline.
   if (slid.triangle != proxy_triangle && !trace.repeats_from(slid.triangle)) {
-    if (walk_from(mesh, probe, slid.triangle, nullptr, cursor, nearest, ans.surface) && continuous(ans.surface)) {
+    const Reach reach{proxy_point, 8 * move_sq + 2 * kProxyTolerance * kProxyTolerance};
+    if (walk_from(mesh, probe, slid.triangle, nullptr, cursor, nearest, ans.surface, nullptr, &reach) &&
+        continuous(ans.surface)) {
       commit_walk(mesh, probe, nearest, cursor, ans);
       return ans;
     }

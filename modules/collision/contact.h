@@ -78,6 +78,9 @@ enum class WalkEnd : unsigned char {
   Border = 6,       ///< no triangle across the edge to step over: a border or non-manifold edge
   SteppedBack = 7,  ///< the step went straight back: the solution lies in no triangle here
   OutOfSteps = 8,   ///< kMaxWalkSteps (or kMaxFanSteps round a high-valence vertex) used up
+  /// On a triangle too far from the point a walk's answer had to be near to
+  /// be taken (track_contact's walk from the slid proxy; see there).
+  OutOfReach = 9,
 };
 
 /// The triangles an in-contact walk visited, in order, and from which of
