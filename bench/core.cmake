@@ -23,7 +23,8 @@ add_executable(palpa-bench
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_meshes.cpp
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_tissue.cpp
   ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_hover.cpp
-  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_fallback.cpp)
+  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_fallback.cpp
+  ${CMAKE_CURRENT_LIST_DIR}/palpa_bench_query_loop.cpp)
 target_link_libraries(palpa-bench PRIVATE palpa::haptics palpa::collision palpa::deform palpa::mesh palpa::tissue
   opencv_core opencv_imgcodecs palpa_bench_cgal nlohmann_json::nlohmann_json palpa_warnings)
 # The shared organs live next to the source tree: <source>/../shared/data/organs.

@@ -23,8 +23,8 @@
 namespace palpa::bench {
 
 /// A count per collision::WalkEnd (index = its value, one slot per value up
-/// to OutOfSteps).
-using WalkEndCounts = std::array<std::size_t, static_cast<std::size_t>(collision::WalkEnd::OutOfSteps) + 1>;
+/// to OutOfReach).
+using WalkEndCounts = std::array<std::size_t, static_cast<std::size_t>(collision::WalkEnd::OutOfReach) + 1>;
 
 struct TreePathSplit {
   std::size_t queries = 0;       ///< queries replayed (the timed ones)

@@ -28,6 +28,7 @@
 #include "palpa_bench_replica.h"
 #include "palpa_bench_fallback.h"
 #include "palpa_bench_hover.h"
+#include "palpa_bench_query_loop.h"
 #include "palpa_bench_tissue.h"
 #include "palpa_bench_util.h"
 
@@ -95,12 +96,13 @@ struct Options {
   bool spatial_order = true;   // mesh::reorder_spatially, as load_organ numbers every organ
   std::string only;      // only meshes whose name contains this
   int repeat = 1;        // contact queries: runs of each method's path, least time per query kept
+  int query_loop = 0;    // > 0: only track_contact along the paths, this many passes (--query-loop)
 };
 
 void print_usage() {
   std::printf(
       "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--organ-unit U] [--no-spheres]\n"
-      "                   [--ticks N] [--seed N] [--repeat N] [--tissue-map] [--hover]\n"
+      "                   [--ticks N] [--seed N] [--repeat N] [--tissue-map] [--hover] [--query-loop N]\n"
       "  --quick            reduced set (spheres 10k, 100k, 1M; fewer ticks; no brute force above 100k)\n"
       "  --json FILE        also write the records as a JSON array to FILE\n"
       "  --shared-data DIR  folder of shared organ meshes (default %s)\n"
@@ -127,7 +129,11 @@ void print_usage() {
       "                     haptics::reserve_haptic_cpu): both threads where the scheduler puts them\n"
       "  --as-built-order   keep each mesh's vertex order as generated or read (before issue 8's\n"
       "                     spatial order; load_organ numbers organs along a Hilbert curve)\n"
-      "  --only TEXT        only the meshes whose name contains TEXT (=NAME: only the mesh NAME)\n",
+      "  --only TEXT        only the meshes whose name contains TEXT (=NAME: only the mesh NAME)\n"
+      "  --query-loop N     only the tick's contact query (track_contact) along each mesh's paths, 1 and 3\n"
+      "                     probes, N passes with nothing else in the loop: its time per query and a hash\n"
+      "                     of the answers' bits (for profilers, e.g. callgrind collecting only in\n"
+      "                     'palpa::collision::track_contact*', and to check that a change keeps the answers)\n",
       PALPA_BENCH_SHARED_ORGANS_DIR);
 }
 
@@ -205,6 +211,11 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       if (auto e = number("--repeat", n)) return e;
       if (n < 1 || n > 100) return "--repeat: " + std::to_string(n) + " runs is outside 1 to 100";
       o.repeat = static_cast<int>(n);
+    } else if (a == "--query-loop") {
+      std::uint64_t n = 0;
+      if (auto e = number("--query-loop", n)) return e;
+      if (n < 1 || n > 1000) return "--query-loop: " + std::to_string(n) + " passes is outside 1 to 1000";
+      o.query_loop = static_cast<int>(n);
     } else if (a == "--help" || a == "-h") {
       print_usage();
       std::exit(0);
@@ -212,7 +223,8 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       return "unknown option '" + a + "'";
     }
   }
-  if (o.tissue_map_only && o.hover_only) return "--tissue-map and --hover each run only their own section: give one";
+  if (o.tissue_map_only + o.hover_only + (o.query_loop > 0) > 1)
+    return "--tissue-map, --hover and --query-loop each run only their own section: give one";
   return std::nullopt;
 }
 
@@ -500,6 +512,27 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
   std::printf("[%s] %zu vertices, %zu triangles (%s): mesh %.2f s, our tree %.2f s, CGAL tree %.2f s, paths %.2f s\n",
               mc.name.c_str(), V, m->triangle_count(), mc.source.c_str(), t_mesh, t_tree, t_cgal, t_path);
   std::fflush(stdout);
+
+  if (opt.query_loop > 0) {
+    for (int probes : {1, kMaxProbes}) {
+      const bench::QueryLoopResult q = bench::run_query_loop(*m, tree, paths, probes, opt.query_loop);
+      std::printf("[%s] %d probe%s: track_contact %zu queries x %d passes, best pass %.1f ns/query, median %.1f; "
+                  "answers: walk %zu, proxy %zu, tree %zu, clear %zu; answer hash %016llx\n",
+                  mc.name.c_str(), probes, probes == 1 ? "" : "s", q.queries, q.passes, q.best_ns_per_query,
+                  q.median_ns_per_query, q.walk, q.proxy, q.tree, q.clear,
+                  static_cast<unsigned long long>(q.answer_hash));
+      char hex[17];
+      std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(q.answer_hash));
+      json r = {{"mesh", mc.name}, {"mesh_source", mc.source}, {"vertices", V}, {"triangles", m->triangle_count()},
+                {"section", "query_loop"}, {"method", "track"}, {"probes", probes}, {"queries_per_pass", q.queries},
+                {"passes", q.passes}, {"best_ns_per_query", q.best_ns_per_query},
+                {"median_ns_per_query", q.median_ns_per_query}, {"answer_hash", hex},
+                {"walk", q.walk}, {"proxy", q.proxy}, {"tree", q.tree}, {"clear", q.clear}};
+      res.records.push_back(r);
+    }
+    std::fflush(stdout);
+    return;
+  }
 
   deform::ShapeFunction shape;
   shape.kind = deform::ShapeKind::Wendland;
@@ -1346,15 +1379,20 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (!opt.tissue_map_only && !opt.hover_only) print_tables(results, clock, opt);
-  if (!opt.hover_only) {
+  if (opt.query_loop > 0) {
+    std::printf("query loop: collect in 'palpa::collision::track_contact*' (callgrind --toggle-collect) and divide "
+                "by queries x passes for instructions per query; equal answer hashes mean equal bits\n");
+  } else {
+    if (!opt.tissue_map_only && !opt.hover_only) print_tables(results, clock, opt);
+  }
+  if (!opt.hover_only && opt.query_loop == 0) {
     try {
       bench::run_tissue_map_bench(1'000'000, opt.quick ? 3 : 5, results.records);
     } catch (const std::exception& e) {
       std::printf("[tissue map] skipped: %s\n", e.what());
     }
   }
-  if (!opt.tissue_map_only) {
+  if (!opt.tissue_map_only && opt.query_loop == 0) {
     try {
       bench::run_hover_bench(1'000'000, opt.quick ? 10000 : 30000, 2, results.records);
     } catch (const std::exception& e) {
