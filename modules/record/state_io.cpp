@@ -381,6 +381,9 @@ std::vector<std::uint8_t> encode_state(const haptics::SessionState& s,
   core.pending.tissue_map = nullptr;
   core.pending.tissue = nullptr;
   core.tissue = nullptr;
+  // The walks' prepared triangles are a cache of this process's mesh (they
+  // hold its address): written empty, as a fresh cursor's.
+  for (haptics::ProbeMemory& m : core.memory) m.cursor.frames = collision::FrameCache{};
   w.put(core);
   w.put<std::uint8_t>(pending_map ? 1 : 0);
   if (pending_map) put_materials(w, *pending_map);
@@ -442,11 +445,15 @@ DecodedState decode_state(std::span<const std::uint8_t> blob, const haptics::Ses
   s.generation = r.get<std::uint64_t>();
   s.model_time = r.get<double>();
   s.core = r.get<haptics::CoreState>();
-  // Its pointers were written as null; they are set from what follows.
+  // Its pointers were written as null; they are set from what follows. The
+  // prepared triangles were written empty: whatever a file holds there is
+  // dropped (a frame names its mesh by address, and its corners are used as
+  // vertex indices).
   s.core.pending.map = nullptr;
   s.core.pending.tissue_map = nullptr;
   s.core.pending.tissue = nullptr;
   s.core.tissue = nullptr;
+  for (haptics::ProbeMemory& m : s.core.memory) m.cursor.frames = collision::FrameCache{};
   if (s.core.pending.material > 3)
     throw DecodeError("snapshot has an unknown pending material edit " + std::to_string(s.core.pending.material));
   if (s.core.pending.material == 1) {

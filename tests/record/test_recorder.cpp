@@ -401,6 +401,46 @@ TEST(StateIo, ASnapshotWithATissueEditPendingOrInForceRoundTripsAndStepsOnAlike)
 // A replay's pending deformation steps go with a snapshot and come back the
 // same; a state without them keeps the bytes it always had; a step with a
 // map edit cannot be stored and says so.
+// The walks' prepared triangles (collision::FrameCache) are a cache of this
+// process's mesh, holding its address: a snapshot carries none of them,
+// whatever the cursors hold, and a decoded state has none, whatever the
+// file holds.
+TEST(StateIo, ASnapshotCarriesNoPreparedTriangles) {
+  const Rig rig;
+  auto s = rig.session();
+  std::array<haptics::ProbeTickInput, 2> in;
+  std::array<haptics::ProbeTickResult, 2> out;
+  s->apply(haptics::LoopCommand::of(haptics::LoopCommandKind::Enable, 0), 0);
+  s->apply(haptics::LoopCommand::of(haptics::LoopCommandKind::Enable, 1), 0);
+  for (std::uint64_t n = 0; n < 300; ++n) {
+    for (std::size_t j = 0; j < 2; ++j) in[j] = test::input(j, n);
+    s->step(static_cast<double>(n) * 1e-3, in, out);
+  }
+  const haptics::SessionState snap = s->snapshot();
+  auto prepared = [](const haptics::CoreState& core) {
+    std::size_t k = 0;
+    for (const haptics::ProbeMemory& m : core.memory)
+      for (const collision::TriangleFrame& f : m.cursor.frames.slot) k += f.mesh != nullptr;
+    return k;
+  };
+  ASSERT_GT(prepared(snap.core), 0u) << "the probes walked no triangle: nothing to check";
+  haptics::SessionState without = snap;
+  for (haptics::ProbeMemory& m : without.core.memory) m.cursor.frames = collision::FrameCache{};
+  const std::vector<std::uint8_t> bytes = encode_state(snap);
+  EXPECT_EQ(bytes, encode_state(without));
+  const DecodedState d = decode_state(bytes, *rig.model);
+  EXPECT_EQ(prepared(d.state.core), 0u);
+  // A file whose state holds prepared triangles (the cursors' bytes as they
+  // are in memory, after the tick, the generation and the model time).
+  const std::uint32_t magic = 0x31535350;  // "PSS1", state_io.cpp's kStateMagic
+  auto raw = internal::unpack(bytes, magic, "snapshot");
+  const std::size_t at = 2 * sizeof(std::uint64_t) + sizeof(double);
+  ASSERT_GE(raw.size(), at + sizeof(haptics::CoreState));
+  std::memcpy(raw.data() + at, static_cast<const void*>(&snap.core), sizeof(haptics::CoreState));
+  const DecodedState forged = decode_state(internal::pack(raw, magic), *rig.model);
+  EXPECT_EQ(prepared(forged.state.core), 0u);
+}
+
 TEST(StateIo, PendingStepsRoundTripWithASnapshot) {
   const Rig rig;
   auto s = rig.session();
