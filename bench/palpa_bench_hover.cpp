@@ -57,7 +57,7 @@ RunResult run(const std::shared_ptr<const mesh::SurfaceMesh>& mesh, const collis
     // The loop's warm-up (LoopCore::warm_caches): the last tick again, into
     // scratch, asking the tree for the probes it did not search for.
     if (k > 0) {
-      for (int p = 0; p < kProbes; ++p) warm_memory[p] = haptics::memory_for_warm_up(memory[p]);
+      for (int p = 0; p < kProbes; ++p) haptics::set_warm_up_memory(memory[p], warm_memory[p]);
       haptics::haptic_tick(surface, tree, last, warm_memory, warm_out, haptics::ForceParams{}, shape);
     }
     const auto t0 = Clock::now();

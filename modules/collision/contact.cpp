@@ -1039,14 +1039,17 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // below that, the contact goes on there (its depth, like the proxy's, is
   // near zero at this moment, so the force does not jump).
   if (!(slid.offset < 0)) {
-    ContactCursor probe_cursor = cursor;
-    const ContactAnswer fresh = query_contact(mesh, tree, probe, probe_cursor, false);
+    // Out of contact query_contact walks no triangle, so only the cursor's
+    // state is kept aside (not its prepared triangles).
+    const ContactCursorState kept = cursor;
+    const ContactAnswer fresh = query_contact(mesh, tree, probe, cursor, false);
     if (fresh.surface.triangle != kNoIndex && fresh.surface.offset < 0) {
-      cursor = probe_cursor;
       ans = fresh;
       return ans;
     }
-    cursor.tree = probe_cursor.tree;
+    const SearchCursor leaf = cursor.tree;
+    static_cast<ContactCursorState&>(cursor) = kept;
+    cursor.tree = leaf;
   }
   ans.surface = slid;
   const mesh::Triangle& tri = mesh.triangles[slid.triangle];

@@ -150,12 +150,20 @@ struct TriangleFrame {
 /// keeps coming back to the same triangles, as the proxy's does each tick
 /// while the probe is held deep (it visits two or three before it
 /// declines), prepares each once. Replaced in turn; `last` is the slot of
-/// the frame the walk ended on.
+/// the frame the walk ended on. A cache only: the answers are the same with
+/// any content (each frame is made from its mesh and triangle).
 struct FrameCache {
   static constexpr int kSize = 4;
   TriangleFrame slot[kSize];
   int last = 0;  ///< slot of the walk's last triangle
   int next = 0;  ///< slot to replace next
+
+  /// Forgets every frame (a store a slot, not the bytes a new cache writes).
+  void clear() {
+    for (TriangleFrame& f : slot) f.mesh = nullptr;
+    last = 0;
+    next = 0;
+  }
 
   /// The slot of the prepared frame of triangle t of `mesh`, or -1.
   int find(const mesh::SurfaceMesh& mesh, Index t) const {
@@ -166,9 +174,11 @@ struct FrameCache {
   }
 };
 
-/// Per-probe memory of query_contact. Plain data; value-initialised means
-/// "no previous answer".
-struct ContactCursor {
+/// Per-probe memory of query_contact but its prepared triangles: what the
+/// next answer depends on. Plain data; value-initialised means "no previous
+/// answer". Copied alone (a ContactCursor sliced to it) where the cache
+/// need not travel.
+struct ContactCursorState {
   SearchCursor tree;          ///< leaf of the last tree answer (local search of section V.A)
   Index triangle = kNoIndex;  ///< triangle of the last answer
   Vec3 probe = Vec3::Zero();  ///< probe position of the last answer, m
@@ -181,7 +191,6 @@ struct ContactCursor {
   /// went; false after the proxy's answer (the probe deeper than half the
   /// focal distance, not on the normal at the proxy).
   bool at_foot = false;
-  FrameCache frames;          ///< the walk's last triangles, prepared
   /// The triangle across the edge of `triangle` nearest to the last answer
   /// (where a sliding probe goes next); its data is fetched ahead of time.
   Index ahead = kNoIndex;
@@ -197,6 +206,12 @@ struct ContactCursor {
   double clearance = 0;
   SurfacePoint clear_surface;
   Index clear_vertex = kNoIndex;
+};
+
+/// Per-probe memory of query_contact: its state and the walk's prepared
+/// triangles. Plain data; value-initialised means "no previous answer".
+struct ContactCursor : ContactCursorState {
+  FrameCache frames;  ///< the walk's last triangles, prepared (a cache: no effect on answers)
 };
 
 /// Which way query_contact found its answer.

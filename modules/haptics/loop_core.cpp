@@ -285,7 +285,7 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
       return;
     case LoopCommandKind::ResetSurface:
       state_.pending.reset = true;
-      for (auto& m : state_.memory) m = ProbeMemory{};  // every contact starts afresh
+      for (auto& m : state_.memory) forget(m);  // every contact starts afresh
       return;
     default: break;
   }
@@ -293,7 +293,7 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
   CoreProbeState& st = state_.probes[c.probe];
   if (c.kind == LoopCommandKind::AddProbe) {
     st = CoreProbeState{};
-    state_.memory[c.probe] = ProbeMemory{};
+    forget(state_.memory[c.probe]);
     st.active = true;
     st.spec = c.prepared.spec;
     st.safety = c.prepared.safety;
@@ -309,7 +309,7 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
     case LoopCommandKind::SetMapping: st.mapping.set_mapping(c.mapping); break;
     case LoopCommandKind::RemoveProbe:
       st = CoreProbeState{};
-      state_.memory[c.probe] = ProbeMemory{};
+      forget(state_.memory[c.probe]);
       break;
     default: break;
   }
@@ -394,13 +394,8 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
   }
 
   // Collision and eq. (4) force for every probe (section III.C, III.E). The
-  // memories are used in place when the slots have no holes (the usual case).
+  // memories are used in place, through the slots where these have holes.
   const bool packed = dense == n;
-  ProbeMemory* memory = state_.memory.data();
-  if (!packed) {
-    for (std::size_t d = 0; d < dense; ++d) memory_[d] = state_.memory[slot_of_[d]];
-    memory = memory_.data();
-  }
   const TissueTick* tissue = nullptr;
   if (field_ && !field_->empty()) {
     for (std::size_t p = 0; p < field_->pulse_count; ++p) tissue_tick_.pulse_value[p] = field_->pulse_value(p, t);
@@ -411,10 +406,9 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
   last_dense_ = dense;
   last_tissue_ = tissue != nullptr;
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
-              std::span<ProbeMemory>(memory, dense), std::span<ProbeOutput>(probe_outputs_.data(), dense),
-              state_.force, state_.shape, tissue);
-  if (!packed)
-    for (std::size_t d = 0; d < dense; ++d) state_.memory[slot_of_[d]] = memory_[d];
+              std::span<ProbeMemory>(state_.memory.data(), packed ? dense : state_.memory.size()),
+              std::span<ProbeOutput>(probe_outputs_.data(), dense), state_.force, state_.shape, tissue,
+              packed ? std::span<const std::uint8_t>() : std::span<const std::uint8_t>(slot_of_.data(), dense));
 
   // Safety per device, results, and the contacts for the deformation model.
   contacts.tick = tick;
@@ -510,7 +504,7 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
 // same reads, nothing kept.
 void LoopCore::warm_caches(const deform::DeformableSurface& surface) noexcept {
   const std::size_t dense = last_dense_;
-  for (std::size_t d = 0; d < dense; ++d) warm_memory_[d] = memory_for_warm_up(state_.memory[slot_of_[d]]);
+  for (std::size_t d = 0; d < dense; ++d) set_warm_up_memory(state_.memory[slot_of_[d]], warm_memory_[d]);
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
               std::span<ProbeMemory>(warm_memory_.data(), dense), std::span<ProbeOutput>(warm_outputs_.data(), dense),
               state_.force, state_.shape, last_tissue_ ? &tissue_tick_ : nullptr);

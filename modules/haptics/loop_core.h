@@ -380,7 +380,6 @@ class LoopCore {
   DeformRequest request_;
   std::array<ProbeInput, kMaxProbes> probe_inputs_{};
   std::array<ProbeOutput, kMaxProbes> probe_outputs_{};
-  std::array<ProbeMemory, kMaxProbes> memory_{};    // gathered memories when slots have holes
   std::array<std::uint8_t, kMaxProbes> slot_of_{};  // dense index -> slot, for haptic_tick
   // warm_caches: the last tick's probe count and tissue, and its scratch.
   std::size_t last_dense_ = 0;

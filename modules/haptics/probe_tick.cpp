@@ -187,21 +187,31 @@ void fetch_ring_ahead(const deform::DeformableSurface& surface, const mesh::Surf
 void haptic_tick(const deform::DeformableSurface& surface, const collision::VertexTree& tree,
                  std::span<const ProbeInput> probes, std::span<ProbeMemory> memory,
                  std::span<ProbeOutput> outputs, const ForceParams& params,
-                 const deform::ShapeFunction& shape, const TissueTick* tissue) {
-  const std::size_t n = std::min({probes.size(), memory.size(), outputs.size()});
+                 const deform::ShapeFunction& shape, const TissueTick* tissue,
+                 std::span<const std::uint8_t> memory_slots) {
+  const bool slotted = !memory_slots.empty();
+  std::size_t n = std::min({probes.size(), slotted ? memory_slots.size() : memory.size(), outputs.size()});
+  // With slots: the common prefix whose slots are in `memory`.
+  if (slotted)
+    for (std::size_t i = 0; i < n; ++i)
+      if (memory_slots[i] >= memory.size()) {
+        n = i;
+        break;
+      }
+  auto mem = [&](std::size_t i) -> ProbeMemory& { return slotted ? memory[memory_slots[i]] : memory[i]; };
   // Probes in contact will start from their last triangle: ask for its
   // vertices' data for all probes at once, so their cache misses overlap
   // instead of adding up (no effect on results).
   const mesh::SurfaceMesh& mesh = surface.mesh();
   const bool fits = surface.state().vertices.size() == mesh.vertex_count();
   for (std::size_t i = 0; i < n; ++i) {
-    const Index t = memory[i].cursor.triangle;
-    if (!memory[i].in_contact || t >= mesh.triangle_count()) continue;
+    const Index t = mem(i).cursor.triangle;
+    if (!mem(i).in_contact || t >= mesh.triangle_count()) continue;
     __builtin_prefetch(&mesh.triangles[t]);
     if (t < mesh.triangle_neighbors.size()) __builtin_prefetch(&mesh.triangle_neighbors[t]);
     // The walk keeps the triangle's geometry in the cursor; the surface
     // state of its corners is read after it.
-    for (Index v : memory[i].corners)
+    for (Index v : mem(i).corners)
       if (fits && v < mesh.vertex_count()) surface.prefetch_vertex(v);
   }
   // The triangle across the nearest edge (the walk fetched it ahead), in case
@@ -209,19 +219,19 @@ void haptic_tick(const deform::DeformableSurface& surface, const collision::Vert
   // triangle from it) and surface data, and its row of neighbours (read
   // after the step to look ahead again).
   for (std::size_t i = 0; i < n; ++i) {
-    const Index a = memory[i].cursor.ahead;
-    if (!fits || !memory[i].in_contact || a >= mesh.triangle_count()) continue;
+    const Index a = mem(i).cursor.ahead;
+    if (!fits || !mem(i).in_contact || a >= mesh.triangle_count()) continue;
     if (a < mesh.triangle_neighbors.size()) __builtin_prefetch(&mesh.triangle_neighbors[a]);
-    for (Index v : mesh.triangles[a]) fetch_step_vertex(surface, mesh, v, memory[i].corners);
+    for (Index v : mesh.triangles[a]) fetch_step_vertex(surface, mesh, v, mem(i).corners);
   }
   // The ring of the corner each probe in contact is nearest, one stage a tick.
   for (std::size_t i = 0; i < n; ++i)
-    if (fits && memory[i].in_contact && memory[i].cursor.triangle < mesh.triangle_count())
-      fetch_ring_ahead(surface, mesh, memory[i]);
+    if (fits && mem(i).in_contact && mem(i).cursor.triangle < mesh.triangle_count())
+      fetch_ring_ahead(surface, mesh, mem(i));
   // Each probe independently; mismatched sizes run the common prefix.
   for (std::size_t i = 0; i < n; ++i) {
     outputs[i] = ProbeOutput{};
-    tick_one(surface, tree, probes[i], memory[i], outputs[i], params, shape, tissue);
+    tick_one(surface, tree, probes[i], mem(i), outputs[i], params, shape, tissue);
   }
 }
 

@@ -75,20 +75,49 @@ struct ProbeMemory {
   std::uint8_t ring_stage = 0;
 };
 
-/// The memory a warm-up runs the last tick again with (into scratch, as
-/// LoopCore::warm_caches does): `m`, except that a probe the tick answered
-/// without a search (hovering within its clearance,
+/// Copies `from` into `to`, all but the cursor's prepared triangles
+/// (collision::FrameCache: kSize frames of about 500 bytes), which `to`
+/// keeps: a cache, with which every answer is the same whatever it holds.
+inline void copy_state(const ProbeMemory& from, ProbeMemory& to) {
+  static_cast<collision::ContactCursorState&>(to.cursor) = from.cursor;
+  to.in_contact = from.in_contact;
+  to.corners = from.corners;
+  to.ring_vertex = from.ring_vertex;
+  to.ring_stage = from.ring_stage;
+}
+static_assert(sizeof(ProbeMemory) == sizeof(collision::ContactCursor) + 24,
+              "ProbeMemory changed: copy its new fields in copy_state");
+
+/// No history (made before main, so that forget takes no guard on the
+/// haptic thread).
+inline const ProbeMemory kNoProbeMemory{};
+
+/// Sets `m` to no history, as ProbeMemory{} does, without writing its
+/// prepared triangles again (they are forgotten).
+inline void forget(ProbeMemory& m) {
+  copy_state(kNoProbeMemory, m);
+  m.cursor.frames.clear();
+}
+
+/// Sets `w` to the memory a warm-up runs the last tick again with (into
+/// scratch, as LoopCore::warm_caches does): `m`, except that a probe the
+/// tick answered without a search (hovering within its clearance,
 /// collision::ContactPath::Clear) is asked of the tree, so that the tree's
 /// path is in the cache on the tick the probe leaves its clearance (tens of
 /// microseconds on a 1M-vertex organ otherwise, against about one warm).
-inline ProbeMemory memory_for_warm_up(const ProbeMemory& m) {
-  ProbeMemory w = m;
+/// Without m's prepared triangles (not copied): `w` has none, so
+/// the warm-up prepares the triangles it walks, reading their corners.
+inline void set_warm_up_memory(const ProbeMemory& m, ProbeMemory& w) {
+  copy_state(m, w);
+  w.cursor.frames.clear();
   w.cursor.clearance = 0;
-  return w;
 }
 
 /// Runs one tick for probes.size() probes against the surface's current
-/// state. `outputs` and `memory` must have the same size as `probes`.
+/// state. `outputs` and `memory` must have the same size as `probes`; with
+/// `memory_slots`, probe i's memory is memory[memory_slots[i]] instead (so
+/// that memories in slots with holes need not be gathered and copied back:
+/// a FrameCache each).
 /// `shape` is the shape function given to each contact. With `tissue`, the
 /// normal reaction at indentation d is the local model's at
 /// d + (the pulse lift at the contact point), with the modulus multiplied
@@ -97,6 +126,7 @@ inline ProbeMemory memory_for_warm_up(const ProbeMemory& m) {
 void haptic_tick(const deform::DeformableSurface& surface, const collision::VertexTree& tree,
                  std::span<const ProbeInput> probes, std::span<ProbeMemory> memory,
                  std::span<ProbeOutput> outputs, const ForceParams& params,
-                 const deform::ShapeFunction& shape, const TissueTick* tissue = nullptr);
+                 const deform::ShapeFunction& shape, const TissueTick* tissue = nullptr,
+                 std::span<const std::uint8_t> memory_slots = {});
 
 }  // namespace palpa::haptics

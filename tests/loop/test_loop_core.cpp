@@ -254,6 +254,61 @@ TEST_F(LoopCoreTest, ConfigurationErrorsNameTheField) {
 // memories are the same before and after each warm. Two probes slide across
 // the deforming plane, in and out of contact, across many triangles. Where a
 // probe hovered clear of the surface (no search), the warm asks the tree.
+// With a free slot between probes, each probe's tick reads and keeps its own
+// memory (haptic_tick through the slots, nothing gathered): probes 0 and 2
+// of a core whose probe 1 is removed while they are in contact feel, bit for
+// bit, what probes 0 and 1 of a core that never had it feel, before and
+// after, through contacts, releases and warm-ups.
+TEST_F(LoopCoreTest, AProbeBeyondAFreeSlotKeepsItsOwnMemory) {
+  auto holed = make({setup(), setup(), setup()});
+  auto packed = make({setup(), setup()});
+  ContactSet packed_contacts;
+  std::size_t in_contact = 0, out_of_contact = 0, removed_in_contact = 0;
+  for (std::uint64_t i = 1; i <= 1200; ++i) {
+    const double t = 1.0 + static_cast<double>(i) * kPeriod;
+    if (i == 400) {
+      holed->apply(LoopCommand::of(LoopCommandKind::RemoveProbe, 1), t);
+      for (int p : {0, 2}) removed_in_contact += holed->state().memory[p].in_contact;
+    }
+    std::array<ProbeTickInput, 3> in{};
+    for (int p = 0; p < 3; ++p) {
+      const double s = static_cast<double>(i) * kPeriod;
+      const double x = -0.015 + 0.025 * s + 0.004 * p, y = 0.006 * std::sin(3.0 * s + p);
+      const double z = -0.0015 + 0.0025 * std::sin(9.0 * s + 2.0 * p);  // leaves the surface now and then
+      in[p].sample.orientation[0] = 1;
+      in[p].sample.position[0] = x;
+      in[p].sample.position[1] = y;
+      in[p].sample.position[2] = z;
+      in[p].sample.status = PALPA_STATUS_VALID;
+      in[p].sample.sequence = i;
+      in[p].sample.time = t;
+      in[p].read_ok = true;
+    }
+    const std::array<ProbeTickInput, 2> packed_in{in[0], in[2]};
+    std::array<ProbeTickResult, 3> a{};
+    std::array<ProbeTickResult, 2> b{};
+    holed->tick(i, t, *surface_, 0, in, a, contacts_);
+    packed->tick(i, t, *surface_, 0, packed_in, b, packed_contacts);
+    for (int k = 0; k < 2; ++k) {
+      const ProbeTickResult& h = a[k == 0 ? 0 : 2];
+      SCOPED_TRACE("tick " + std::to_string(i) + ", probe " + std::to_string(k == 0 ? 0 : 2));
+      EXPECT_EQ(h.force_world, b[k].force_world);
+      EXPECT_EQ(h.contact_point, b[k].contact_point);
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(h.depth), std::bit_cast<std::uint64_t>(b[k].depth));
+      EXPECT_EQ(h.in_contact, b[k].in_contact);
+      EXPECT_EQ(h.path, b[k].path);
+      (h.in_contact ? in_contact : out_of_contact) += 1;
+    }
+    if (i % 3 == 0) {
+      holed->warm_caches(*surface_);
+      packed->warm_caches(*surface_);
+    }
+  }
+  EXPECT_GT(in_contact, 600u);
+  EXPECT_GT(out_of_contact, 300u);
+  EXPECT_GT(removed_in_contact, 0u) << "no probe was in contact when probe 1 was removed";
+}
+
 TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
   auto cold = make({setup(), setup()});
   auto warm = make({setup(), setup()});
