@@ -1040,7 +1040,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // near zero at this moment, so the force does not jump).
   if (!(slid.offset < 0)) {
     // Out of contact query_contact walks no triangle, so only the cursor's
-    // state is kept aside (not its prepared triangles).
+    // state is kept aside (not its prepared triangles, 8 KB).
     const ContactCursorState kept = cursor;
     const ContactAnswer fresh = query_contact(mesh, tree, probe, cursor, false);
     if (fresh.surface.triangle != kNoIndex && fresh.surface.offset < 0) {
