@@ -4,6 +4,7 @@
 // interrupted and is marked so.
 
 #include "record_rig.h"
+#include "record/state_io.h"
 
 #include <sqlite3.h>
 #include <sys/wait.h>
@@ -175,6 +176,23 @@ TEST(SessionFile, OverTheSizeLimitIsNamedBeforeReading) {
 }
 
 // A writer that dies without finishing leaves a file that opens as interrupted.
+// fuzz_session edits this session (fuzz/templates/sphere_6s.palpa). Made by
+// a build of another layout, it stops every input at the layout check,
+// before the command and snapshot decoders it is there to reach: remade by
+// tools/make-fuzz-template.sh whenever the layout changes.
+TEST(SessionFile, TheFuzzTemplateHasThisBuildsLayout) {
+  const std::filesystem::path copy = test::temp_dir() / "fuzz_template.palpa";
+  std::filesystem::remove(copy);
+  std::filesystem::copy_file(PALPA_FUZZ_SESSION_TEMPLATE, copy);
+  const auto f = SessionFile::open(copy);
+  EXPECT_TRUE(f.same_layout()) << PALPA_FUZZ_SESSION_TEMPLATE << " was recorded with layout '" << f.header().layout
+                               << "', this build's is '" << layout_tag()
+                               << "': remake it with tools/make-fuzz-template.sh";
+  std::vector<std::shared_ptr<const deform::MaterialArrays>> keep;
+  EXPECT_NO_THROW((void)f.commands(keep));
+  EXPECT_FALSE(f.snapshots().empty());
+}
+
 TEST(SessionFile, DeadWriterMeansInterrupted) {
   const auto f = test::temp_dir() / "dead-writer.palpa";
   std::filesystem::remove(f);
