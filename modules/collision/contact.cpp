@@ -532,8 +532,7 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
     if (trace && trace->count < WalkTrace::kCapacity) trace->triangles[trace->count++] = t;
     if (!first) slot = frames.find(mesh, t);  // (the start's was looked up above)
     if (slot < 0) {
-      slot = frames.next;
-      frames.next = (frames.next + 1) % FrameCache::kSize;
+      slot = frames.take(mesh, t);
       make_frame(mesh, t, frames.slot[slot]);
     }
     frames.last = slot;

@@ -152,27 +152,66 @@ struct TriangleFrame {
 /// a quarter of the vertices have more than kFanValence triangles, those
 /// walks visit up to ten triangles a tick, and four kept triangles were
 /// rebuilt every tick (16: 8 KB a probe). Replaced in turn; `last` is the
-/// slot of the frame the walk ended on. A cache only: the answers are the
-/// same with any content (each frame is made from its mesh and triangle).
+/// slot of the frame the walk ended on. The frames are of one mesh, `owner`,
+/// and their triangles are listed apart (`key`, 64 bytes), so that a
+/// lookup reads one or two lines, not one per frame. A cache only: the answers are
+/// the same with any content (each frame is made from its mesh and
+/// triangle). Value-initialised: empty.
 struct FrameCache {
   static constexpr int kSize = 16;
+  const mesh::SurfaceMesh* owner = nullptr;  ///< the mesh of the frames held; null: none held
+  std::array<Index, kSize> key{};  ///< the triangle in each slot (with owner set; kNoIndex: none)
   TriangleFrame slot[kSize];
   int last = 0;  ///< slot of the walk's last triangle
   int next = 0;  ///< slot to replace next
 
-  /// Forgets every frame (16 stores, not the 8 KB a new cache writes).
+  /// Forgets every frame.
   void clear() {
-    for (TriangleFrame& f : slot) f.mesh = nullptr;
+    owner = nullptr;
     last = 0;
     next = 0;
   }
 
+  /// The number of frames held.
+  int held() const {
+    int n = 0;
+    if (owner)
+      for (Index k : key) n += k != kNoIndex;
+    return n;
+  }
+
   /// The slot of the prepared frame of triangle t of `mesh`, or -1.
   int find(const mesh::SurfaceMesh& mesh, Index t) const {
-    if (slot[last].triangle == t && slot[last].mesh == &mesh) return last;
+    if (owner != &mesh) return -1;
+    if (key[last] == t) return last;
     for (int i = 0; i < kSize; ++i)
-      if (slot[i].triangle == t && slot[i].mesh == &mesh) return i;
+      if (key[i] == t) return i;
     return -1;
+  }
+
+  /// The slot to prepare triangle t of `mesh` in (the next in turn; a cache
+  /// of another mesh is emptied first), listed as t's. The caller fills it.
+  int take(const mesh::SurfaceMesh& mesh, Index t) {
+    if (owner != &mesh) {
+      owner = &mesh;
+      key.fill(kNoIndex);
+    }
+    const int s = next;
+    next = (next + 1) % kSize;
+    key[s] = t;
+    return s;
+  }
+
+  /// Asks for the lines a query reads first: the list, the last frame and
+  /// the one to be replaced next (a warm-up does, since it runs on a copy
+  /// without frames). No effect on results.
+  void prefetch() const {
+    __builtin_prefetch(&owner);
+    __builtin_prefetch(key.data());
+    for (const TriangleFrame* f : {&slot[last], &slot[next]}) {
+      const char* p = reinterpret_cast<const char*>(f);
+      for (std::size_t b = 0; b < sizeof(TriangleFrame); b += 64) __builtin_prefetch(p + b);
+    }
   }
 };
 

@@ -105,9 +105,11 @@ inline void forget(ProbeMemory& m) {
 /// collision::ContactPath::Clear) is asked of the tree, so that the tree's
 /// path is in the cache on the tick the probe leaves its clearance (tens of
 /// microseconds on a 1M-vertex organ otherwise, against about one warm).
-/// Without m's prepared triangles (not copied): `w` has none, so
-/// the warm-up prepares the triangles it walks, reading their corners.
+/// Without m's prepared triangles (not copied): `w` has none, so the
+/// warm-up prepares the triangles it walks, reading their corners; the lines
+/// of m's that the next tick reads first are asked for instead.
 inline void set_warm_up_memory(const ProbeMemory& m, ProbeMemory& w) {
+  m.cursor.frames.prefetch();
   copy_state(m, w);
   w.cursor.frames.clear();
   w.cursor.clearance = 0;

@@ -312,8 +312,7 @@ TEST(Proxy, ThePreparedTrianglesTheCursorKeepsGiveTheAnswersOfFreshOnes) {
     proxies += a.path == ContactPath::Proxy;
     walks += a.path == ContactPath::Walk;
     // Triangles the kept cursor holds prepared after this tick.
-    int held = 0;
-    for (const TriangleFrame& f : kept.frames.slot) held += f.mesh == &m;
+    const int held = kept.frames.held();
     several += a.path == ContactPath::Proxy && held >= 2;
   }
   // The check covers both paths, and ticks on which the proxy's walk left
