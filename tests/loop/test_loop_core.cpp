@@ -69,6 +69,24 @@ class LoopCoreTest : public ::testing::Test {
     return r;
   }
 
+  // Probe p's sample at tick i (time t, s): sliding across the plane, 4 mm
+  // apart, in and out of contact now and then.
+  static ProbeTickInput sliding_input(int p, std::uint64_t i, double t) {
+    const double s = static_cast<double>(i) * kPeriod;
+    const double x = -0.015 + 0.025 * s + 0.004 * p, y = 0.006 * std::sin(3.0 * s + p);
+    const double z = -0.0015 + 0.0025 * std::sin(9.0 * s + 2.0 * p);  // leaves the surface now and then
+    ProbeTickInput in;
+    in.sample.orientation[0] = 1;
+    in.sample.position[0] = x;
+    in.sample.position[1] = y;
+    in.sample.position[2] = z;
+    in.sample.status = PALPA_STATUS_VALID;
+    in.sample.sequence = i;
+    in.sample.time = t;
+    in.read_ok = true;
+    return in;
+  }
+
   std::shared_ptr<mesh::SurfaceMesh> mesh_;
   std::unique_ptr<deform::DeformableSurface> surface_;
   std::unique_ptr<collision::VertexTree> tree_;
@@ -271,19 +289,7 @@ TEST_F(LoopCoreTest, AProbeBeyondAFreeSlotKeepsItsOwnMemory) {
       for (int p : {0, 2}) removed_in_contact += holed->state().memory[p].in_contact;
     }
     std::array<ProbeTickInput, 3> in{};
-    for (int p = 0; p < 3; ++p) {
-      const double s = static_cast<double>(i) * kPeriod;
-      const double x = -0.015 + 0.025 * s + 0.004 * p, y = 0.006 * std::sin(3.0 * s + p);
-      const double z = -0.0015 + 0.0025 * std::sin(9.0 * s + 2.0 * p);  // leaves the surface now and then
-      in[p].sample.orientation[0] = 1;
-      in[p].sample.position[0] = x;
-      in[p].sample.position[1] = y;
-      in[p].sample.position[2] = z;
-      in[p].sample.status = PALPA_STATUS_VALID;
-      in[p].sample.sequence = i;
-      in[p].sample.time = t;
-      in[p].read_ok = true;
-    }
+    for (int p = 0; p < 3; ++p) in[p] = sliding_input(p, i, t);
     const std::array<ProbeTickInput, 2> packed_in{in[0], in[2]};
     std::array<ProbeTickResult, 3> a{};
     std::array<ProbeTickResult, 2> b{};
@@ -319,19 +325,7 @@ TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
   for (std::uint64_t i = 1; i <= 1200; ++i) {
     const double t = 1.0 + static_cast<double>(i) * kPeriod;
     std::array<ProbeTickInput, 2> in{};
-    for (int p = 0; p < 2; ++p) {
-      const double s = static_cast<double>(i) * kPeriod;
-      const double x = -0.015 + 0.025 * s + 0.004 * p, y = 0.006 * std::sin(3.0 * s + p);
-      const double z = -0.0015 + 0.0025 * std::sin(9.0 * s + 2.0 * p);  // leaves the surface now and then
-      in[p].sample.orientation[0] = 1;
-      in[p].sample.position[0] = x;
-      in[p].sample.position[1] = y;
-      in[p].sample.position[2] = z;
-      in[p].sample.status = PALPA_STATUS_VALID;
-      in[p].sample.sequence = i;
-      in[p].sample.time = t;
-      in[p].read_ok = true;
-    }
+    for (int p = 0; p < 2; ++p) in[p] = sliding_input(p, i, t);
     std::array<ProbeTickResult, 2> a{}, b{};
     cold->tick(i, t, *surface_, 0, in, a, contacts_);
     warm->tick(i, t, *surface_, 0, in, b, warm_contacts);
