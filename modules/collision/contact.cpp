@@ -62,8 +62,6 @@ struct Candidate {
 // Prepares triangle t of the mesh (see TriangleFrame).
 void make_frame(const mesh::SurfaceMesh& mesh, Index t, TriangleFrame& f) {
   const mesh::Triangle& tri = mesh.triangles[t];
-  f.mesh = &mesh;
-  f.triangle = t;
   f.corners = tri;
   for (int k = 0; k < 3; ++k) {
     f.p[k] = mesh.positions[tri[k]];

@@ -122,12 +122,11 @@ SurfacePoint walk_surface_point(const mesh::SurfaceMesh& mesh, const Vec3& probe
 
 /// One triangle prepared for the interpolated-normal equation: its corners
 /// and per-triangle constants, so a walk that stays on a triangle does not
-/// rebuild them every tick. Filled by the walk; valid for `mesh` (unchanged)
-/// and `triangle`. A frame is made only on a mesh the walk has checked, so
-/// a walk that starts on the frame's triangle does not check it again.
+/// rebuild them every tick. Filled by the walk; valid for the mesh
+/// (unchanged) and the triangle its FrameCache lists it under (`owner`,
+/// `key`). A frame is made only on a mesh the walk has checked, so a walk
+/// that starts on the frame's triangle does not check it again.
 struct TriangleFrame {
-  const mesh::SurfaceMesh* mesh = nullptr;
-  Index triangle = kNoIndex;
   mesh::Triangle corners{kNoIndex, kNoIndex, kNoIndex};
   /// Corner positions (m) and unit normals, as in the mesh.
   Vec3 p[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
