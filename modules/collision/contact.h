@@ -286,8 +286,10 @@ struct ContactAnswer {
 /// then, the walk runs from that triangle (where the last answer's weights,
 /// the cursor's barycentric when at_foot, put its foot near enough to an
 /// edge for the probe's motion to have carried it across, the walk first
-/// tries the neighbour it guesses the foot is in; a wrong guess costs time,
-/// not a different answer, except where both triangles hold a foot); when
+/// tries the neighbour it guesses the foot is in, and goes on from there
+/// when the foot passed a corner of the start; a wrong guess costs time,
+/// not a different answer, except where the surface holds more than one
+/// foot within the walk's reach); when
 /// it declines, or otherwise, the tree's local search finds the exact
 /// nearest vertex and
 /// locate_surface_point the surface point around it. Updates the cursor. No
