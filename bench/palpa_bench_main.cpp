@@ -572,6 +572,9 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     // with how many triangles a probe crosses per second, that is with the
     // mesh's density along the path).
     std::vector<double> tick_cross_ns, tick_stay_ns;
+    // Of those, the ticks where a probe passed a corner of its triangle
+    // (the walk steps at least twice).
+    std::vector<double> tick_corner_ns;
     // Ticks split by the slowest contact path any probe took (walk < proxy < tree).
     std::array<std::vector<double>, 3> tick_by_path;
     bool stepped = false;
@@ -609,10 +612,20 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
           }
         }
         tick_by_path[slowest].push_back(ns);
-        bool crossed = false;
-        for (int p = 0; p < probes; ++p)
-          crossed |= session.core().state().memory[p].cursor.triangle != triangle_before[p];
+        bool crossed = false, cornered = false;
+        for (int p = 0; p < probes; ++p) {
+          const Index now = session.core().state().memory[p].cursor.triangle, before = triangle_before[p];
+          if (now == before) continue;
+          crossed = true;
+          // Past a corner: into a triangle that shares no edge with the last.
+          const mesh::SurfaceMesh& m = surface.mesh();
+          if (before < m.triangle_neighbors.size() && now != kNoIndex) {
+            const auto& across = m.triangle_neighbors[before];
+            cornered |= std::find(across.begin(), across.end(), now) == across.end();
+          }
+        }
         (crossed ? tick_cross_ns : tick_stay_ns).push_back(ns);
+        if (cornered) tick_corner_ns.push_back(ns);
       }
       if (due) {
         if (probes == kMaxProbes) requests.push_back(session.core().request());
@@ -630,11 +643,15 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     const bench::Latency other = bench::latency_of(tick_other_ns);
     const bench::Latency crossing = bench::latency_of(tick_cross_ns);
     const bench::Latency staying = bench::latency_of(tick_stay_ns);
+    const bench::Latency cornering = bench::latency_of(tick_corner_ns);
+    auto share = [&](const std::vector<double>& v) {
+      return tick_ns.empty() ? 0.0 : 100.0 * static_cast<double>(v.size()) / static_cast<double>(tick_ns.size());
+    };
     std::printf("[%s] %d probe%s: ticks where a probe changed triangle (%.1f%%) p50 %.3f p99 %.3f us, the others p50 "
-                "%.3f p99 %.3f us\n",
-                mc.name.c_str(), probes, probes == 1 ? "" : "s",
-                tick_ns.empty() ? 0.0 : 100.0 * static_cast<double>(tick_cross_ns.size()) / static_cast<double>(tick_ns.size()),
-                crossing.p50_us, crossing.p99_us, staying.p50_us, staying.p99_us);
+                "%.3f p99 %.3f us; of the first, past a corner of the last triangle (%.2f%%) p50 %.3f p99 %.3f us\n",
+                mc.name.c_str(), probes, probes == 1 ? "" : "s", share(tick_cross_ns), crossing.p50_us,
+                crossing.p99_us, staying.p50_us, staying.p99_us, share(tick_corner_ns), cornering.p50_us,
+                cornering.p99_us);
     std::printf("[%s] %d probe%s: ticks right after a step p50 %.3f p99 %.3f us, the others p50 %.3f p99 %.3f us\n",
                 mc.name.c_str(), probes, probes == 1 ? "" : "s", after_step.p50_us, after_step.p99_us, other.p50_us,
                 other.p99_us);
