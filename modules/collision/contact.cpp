@@ -532,17 +532,15 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
   int steps = 0, fan_steps = 0;
   Index edge_a = kNoIndex, edge_b = kNoIndex;  // the edge crossed last
   // The start, while the walk is on the neighbour guessed_exit named
-  // instead of it; kNoIndex otherwise. (guessed_a, guessed_b): the edge
-  // between them.
+  // instead of it or gone on from there (then `previous` is set; on the
+  // neighbour itself it is not); kNoIndex otherwise. (guessed_a,
+  // guessed_b): the edge between them.
   Index guessed_from = kNoIndex, guessed_a = kNoIndex, guessed_b = kNoIndex;
-  // Whether the walk has gone on beyond that neighbour (see below).
-  bool went_on = false;
   // Back from a wrong guess: the walk starts again on the start triangle,
   // as it would have without the guess.
   auto back = [&] {
     t = guessed_from;
     guessed_from = kNoIndex;
-    went_on = false;
     previous = edge_a = edge_b = kNoIndex;
     steps = fan_steps = 0;
     if (trace) trace->count = 0;
@@ -623,7 +621,7 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
     const int k = b[0] <= b[1] && b[0] <= b[2] ? 0 : (b[1] <= b[2] ? 1 : 2);
     const Index c1 = f.corners[(k + 1) % 3], c2 = f.corners[(k + 2) % 3];
     const Index next = f.neighbors ? mesh.triangle_neighbors[t][k] : across_edge(mesh, t, c1, c2);
-    if (guessed_from != kNoIndex && !went_on) {
+    if (guessed_from != kNoIndex && previous == kNoIndex) {
       // On the guessed neighbour, with its foot outside it too. Where that
       // foot points back across the edge to the start (or to a border),
       // the walk starts again there, as without the guess. Otherwise the
@@ -637,7 +635,6 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
         back();
         continue;
       }
-      went_on = true;
       previous = guessed_from;
       edge_a = guessed_a;
       edge_b = guessed_b;
@@ -647,7 +644,7 @@ bool walk(const mesh::SurfaceMesh& mesh, const Vec3& probe, Index start, const V
     const Index pivot = c1 == edge_a || c1 == edge_b ? c1 : (c2 == edge_a || c2 == edge_b ? c2 : kNoIndex);
     const bool fan = !ends && pivot != kNoIndex && mesh.vertex_triangles.row(pivot).size() > kFanValence;
     const bool out_of_steps = !ends && (fan ? ++fan_steps > kMaxFanSteps : ++steps >= kMaxWalkSteps);
-    if ((ends || out_of_steps) && went_on) {
+    if ((ends || out_of_steps) && guessed_from != kNoIndex) {  // gone on from the guess
       back();
       continue;
     }
