@@ -800,6 +800,16 @@ TEST(ContactWalk, AWalkFromALaterTriangleOfItsTraceEndsAsTheTraceSaysOnOrgans) {
   }
 }
 
+// How the guess fared in check_guessed_crossings.
+struct GuessCounts {
+  std::size_t compared = 0;      // walk answers compared
+  std::size_t right = 0;         // the answer on the guessed triangle
+  std::size_t wrong = 0;         // the walk came back to the start
+  std::size_t beyond_guess = 0;  // the answer on a neighbour of the guessed triangle
+  std::size_t beyond_plain = 0;  // an answer where the walk without the guess declines
+  std::size_t other_foot = 0;    // an answer on another triangle than that walk's
+};
+
 // The in-contact walk of query_contact first looks for a probe that may
 // have crossed an edge across the edge it guesses from the last answer's
 // weights (the cursor's barycentric), without solving the start triangle.
@@ -812,18 +822,9 @@ TEST(ContactWalk, AWalkFromALaterTriangleOfItsTraceEndsAsTheTraceSaysOnOrgans) {
 // wrong ones and answers beyond the guessed triangle (the probe past a
 // corner of the start, where the walk goes on from the guessed triangle)
 // were all exercised.
-// How the guess fared in check_guessed_crossings.
-struct GuessCounts {
-  std::size_t compared = 0;      // walk answers compared
-  std::size_t right = 0;         // the answer on the guessed triangle
-  std::size_t wrong = 0;         // the walk came back to the start
-  std::size_t beyond_guess = 0;  // the answer on a neighbour of the guessed triangle
-  std::size_t beyond_plain = 0;  // an answer where the walk without the guess declines
-  std::size_t other_foot = 0;    // an answer on another triangle than that walk's
-};
-
-// `trials` random crossings of mesh m, each compared with the walk without
-// the guess (failures are reported with `name`). With `unique_feet` (a
+//
+// Here: `trials` random crossings of mesh m, each compared with the walk
+// without the guess (failures are reported with `name`). With `unique_feet` (a
 // convex mesh: one foot under each probe), the answers must be that walk's.
 GuessCounts check_guessed_crossings(const mesh::SurfaceMesh& m, std::mt19937& rng, int trials, bool unique_feet,
                                     const std::string& name) {
