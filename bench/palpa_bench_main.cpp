@@ -575,6 +575,11 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     // Of those, the ticks where a probe passed a corner of its triangle
     // (the walk steps at least twice).
     std::vector<double> tick_corner_ns;
+    // The ticks without a crossing, split by whether a probe's fetch of the
+    // ring round its nearest corner (ProbeMemory::ring_vertex) moved on in
+    // them: a new corner, or one more stage. Their share grows with the
+    // mesh's density along the path, as the crossings' does.
+    std::vector<double> tick_ring_ns, tick_quiet_ns;
     // Ticks split by the slowest contact path any probe took (walk < proxy < tree).
     std::array<std::vector<double>, 3> tick_by_path;
     bool stepped = false;
@@ -588,8 +593,14 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       for (int p = 0; p < probes; ++p) {
         inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
       }
-      std::array<Index, kMaxProbes> triangle_before{};
-      for (int p = 0; p < probes; ++p) triangle_before[p] = session.core().state().memory[p].cursor.triangle;
+      std::array<Index, kMaxProbes> triangle_before{}, ring_vertex_before{};
+      std::array<int, kMaxProbes> ring_stage_before{};
+      for (int p = 0; p < probes; ++p) {
+        const haptics::ProbeMemory& pm = session.core().state().memory[p];
+        triangle_before[p] = pm.cursor.triangle;
+        ring_vertex_before[p] = pm.ring_vertex;
+        ring_stage_before[p] = pm.ring_stage;
+      }
       const auto a = Clock::now();
       const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
                                     std::span<haptics::ProbeTickResult>(results.data(), probes));
@@ -626,6 +637,14 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         }
         (crossed ? tick_cross_ns : tick_stay_ns).push_back(ns);
         if (cornered) tick_corner_ns.push_back(ns);
+        if (!crossed) {
+          bool ring = false;
+          for (int p = 0; p < probes; ++p) {
+            const haptics::ProbeMemory& pm = session.core().state().memory[p];
+            ring |= pm.ring_vertex != ring_vertex_before[p] || pm.ring_stage != ring_stage_before[p];
+          }
+          (ring ? tick_ring_ns : tick_quiet_ns).push_back(ns);
+        }
       }
       if (due) {
         if (probes == kMaxProbes) requests.push_back(session.core().request());
@@ -644,6 +663,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     const bench::Latency crossing = bench::latency_of(tick_cross_ns);
     const bench::Latency staying = bench::latency_of(tick_stay_ns);
     const bench::Latency cornering = bench::latency_of(tick_corner_ns);
+    const bench::Latency ringing = bench::latency_of(tick_ring_ns);
+    const bench::Latency quiet = bench::latency_of(tick_quiet_ns);
     auto share = [&](const std::vector<double>& v) {
       return tick_ns.empty() ? 0.0 : 100.0 * static_cast<double>(v.size()) / static_cast<double>(tick_ns.size());
     };
@@ -652,6 +673,10 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
                 mc.name.c_str(), probes, probes == 1 ? "" : "s", share(tick_cross_ns), crossing.p50_us,
                 crossing.p99_us, staying.p50_us, staying.p99_us, share(tick_corner_ns), cornering.p50_us,
                 cornering.p99_us);
+    std::printf("[%s] %d probe%s: of the others, ticks that moved a probe's ring fetch on (%.1f%%) p50 %.3f p99 %.3f "
+                "us, the rest (%.1f%%) p50 %.3f p99 %.3f us\n",
+                mc.name.c_str(), probes, probes == 1 ? "" : "s", share(tick_ring_ns), ringing.p50_us, ringing.p99_us,
+                share(tick_quiet_ns), quiet.p50_us, quiet.p99_us);
     std::printf("[%s] %d probe%s: ticks right after a step p50 %.3f p99 %.3f us, the others p50 %.3f p99 %.3f us\n",
                 mc.name.c_str(), probes, probes == 1 ? "" : "s", after_step.p50_us, after_step.p99_us, other.p50_us,
                 other.p99_us);
@@ -679,6 +704,8 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["not_after_step"] = latency_json(other);
       r["triangle_changed"] = latency_json(crossing);
       r["triangle_kept"] = latency_json(staying);
+      r["triangle_kept_ring_fetched"] = latency_json(ringing);
+      r["triangle_kept_quiet"] = latency_json(quiet);
       r["by_path"] = {{"walk", latency_json(by_path[0])}, {"proxy", latency_json(by_path[1])},
                       {"tree", latency_json(by_path[2])}};
       res.records.push_back(r);
