@@ -623,9 +623,11 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
           }
         }
         tick_by_path[slowest].push_back(ns);
-        bool crossed = false, cornered = false;
+        bool crossed = false, cornered = false, ring = false;
         for (int p = 0; p < probes; ++p) {
-          const Index now = session.core().state().memory[p].cursor.triangle, before = triangle_before[p];
+          const haptics::ProbeMemory& pm = session.core().state().memory[p];
+          ring |= pm.ring_vertex != ring_vertex_before[p] || pm.ring_stage != ring_stage_before[p];
+          const Index now = pm.cursor.triangle, before = triangle_before[p];
           if (now == before) continue;
           crossed = true;
           // Past a corner: into a triangle that shares no edge with the last.
@@ -637,14 +639,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
         }
         (crossed ? tick_cross_ns : tick_stay_ns).push_back(ns);
         if (cornered) tick_corner_ns.push_back(ns);
-        if (!crossed) {
-          bool ring = false;
-          for (int p = 0; p < probes; ++p) {
-            const haptics::ProbeMemory& pm = session.core().state().memory[p];
-            ring |= pm.ring_vertex != ring_vertex_before[p] || pm.ring_stage != ring_stage_before[p];
-          }
-          (ring ? tick_ring_ns : tick_quiet_ns).push_back(ns);
-        }
+        if (!crossed) (ring ? tick_ring_ns : tick_quiet_ns).push_back(ns);
       }
       if (due) {
         if (probes == kMaxProbes) requests.push_back(session.core().request());
