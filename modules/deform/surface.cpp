@@ -650,16 +650,18 @@ void DeformableSurface::prepare_step(double dt) {
 }
 
 // The per-vertex update of step() and step_full(): everything it touches is
-// held in locals, so byte stores to the flags do not force reloads.
+// held in locals, so byte stores to the flags do not force reloads. kPlain:
+// the surface's one material is an unscaled Linear one (plain_linear()), whose
+// step is copied in here, so that no material is looked up per vertex and its
+// coefficients stay in registers.
+template <bool kPlain>
 struct DeformableSurface::Sweep {
   VertexState* state;
   const double* force;
   const Vec3* correction;
   const Index* integrator_of;
   const Integrator* integrators;
-  // The one Linear material's step when every vertex has it, unscaled (so
-  // the material index need not be read); null otherwise.
-  const LinearStep* plain;
+  LinearStep plain;    // kPlain: the one material's step for dt
   const float* scale;  // null: all 1
   const double* scale_root;  // sqrt of each scale (null with scale)
   std::uint8_t* flags;
@@ -678,7 +680,7 @@ struct DeformableSurface::Sweep {
         correction(s.correction_.data()),
         integrator_of(s.integrator_of_.data()),
         integrators(s.integrators_.data()),
-        plain(s.plain_linear() ? &s.plain_linear()->linear : nullptr),
+        plain(kPlain ? s.plain_linear()->linear : LinearStep{}),
         scale(s.scale_.empty() ? nullptr : s.scale_.data()),
         scale_root(s.scale_.empty() ? nullptr : s.scale_root_.data()),
         flags(s.flags_.data()),
@@ -701,34 +703,34 @@ struct DeformableSurface::Sweep {
 
   // Advances vertex i by dt under its field force (zero outside every field),
   // updates its stream entry and flags; returns whether it stays active.
-  bool advance(Index i) {
+  [[gnu::always_inline]] bool advance(Index i) {
     std::uint8_t f = flags[i];
     VertexState& s = state[i];
     const bool forced = (f & kForced) != 0;
     const double fi = forced ? force[i] : 0.0;
-    if (plain) {
-      plain->apply(s, fi);
-      return record(i, f, s, forced);
-    }
-    const Integrator& g = integrators[integrator_of[i]];
-    const float si = scale ? scale[i] : 1.0f;
-    if (si != 1.0f) {
-      // A scaled vertex (tissue maps: Hertz, integrated without a cache; a
-      // scaled Linear vertex makes its coefficients here, slowly).
-      const Material m = scaled(g.material, static_cast<double>(si), scale_root[i]);
-      if (m.model == LocalModelKind::Linear) LinearStep::make(m, dt).apply(s, fi);
-      else local_model(m.model).step(m, s, fi, dt);
-    } else if (g.material.model == LocalModelKind::Linear) {
-      g.linear.apply(s, fi);
+    if constexpr (kPlain) {
+      plain.apply(s, fi);
     } else {
-      local_model(g.material.model).step(g.material, s, fi, dt);
+      const Integrator& g = integrators[integrator_of[i]];
+      const float si = scale ? scale[i] : 1.0f;
+      if (si != 1.0f) {
+        // A scaled vertex (tissue maps: Hertz, integrated without a cache; a
+        // scaled Linear vertex makes its coefficients here, slowly).
+        const Material m = scaled(g.material, static_cast<double>(si), scale_root[i]);
+        if (m.model == LocalModelKind::Linear) LinearStep::make(m, dt).apply(s, fi);
+        else local_model(m.model).step(m, s, fi, dt);
+      } else if (g.material.model == LocalModelKind::Linear) {
+        g.linear.apply(s, fi);
+      } else {
+        local_model(g.material.model).step(g.material, s, fi, dt);
+      }
     }
     return record(i, f, s, forced);
   }
 
   // After vertex i's integration: its stream entry, flags and place in the
   // changed list; returns whether it stays active.
-  bool record(Index i, std::uint8_t f, VertexState& s, bool forced) {
+  [[gnu::always_inline]] bool record(Index i, std::uint8_t f, VertexState& s, bool forced) {
     float* p = stream + 4 * static_cast<std::size_t>(i);
     bool stays = true;
     if (forced) {
@@ -781,14 +783,20 @@ struct DeformableSurface::Sweep {
 void DeformableSurface::step(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return;
   prepare_step(dt);  // the vertices in a field are in the active set from here
+  if (plain_linear()) sweep_active<true>(dt);
+  else sweep_active<false>(dt);
+  state_.time += dt;
+}
 
+template <bool kPlain>
+void DeformableSurface::sweep_active(double dt) {
   Index* active = active_.data();
   // Advance the active set, dropping the vertices that came to rest. What
   // the vertex kAhead places on reads is asked for now (no effect on
   // results): the active vertices are scattered over arrays larger than the
   // cache, and one vertex's integration is too long for the processor to
   // reach the next one's loads by itself.
-  Sweep sweep(*this, dt);
+  Sweep<kPlain> sweep(*this, dt);
   const std::size_t n = active_size_;
   std::size_t kept = 0;
   constexpr std::size_t kAhead = 6;
@@ -798,7 +806,7 @@ void DeformableSurface::step(double dt) {
       __builtin_prefetch(sweep.state + a, 1);
       __builtin_prefetch(sweep.force + a);
       __builtin_prefetch(sweep.correction + a);
-      if (!sweep.plain) __builtin_prefetch(sweep.integrator_of + a);
+      if constexpr (!kPlain) __builtin_prefetch(sweep.integrator_of + a);
       __builtin_prefetch(sweep.stream + 4 * static_cast<std::size_t>(a), 1);
       __builtin_prefetch(sweep.limit + a);
       if (sweep.scale_root) __builtin_prefetch(sweep.scale_root + a);
@@ -808,27 +816,42 @@ void DeformableSurface::step(double dt) {
   }
   active_size_ = kept;
   sweep.finish(*this);
-  state_.time += dt;
 }
 
 void DeformableSurface::step_full(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return;
   prepare_step(dt);
+  if (plain_linear()) sweep_full<true>(dt);
+  else sweep_full<false>(dt);
+  state_.time += dt;
+}
 
+template <bool kPlain>
+void DeformableSurface::sweep_full(double dt) {
   // Advance every vertex; the active set becomes those not at rest or in a
   // field. A vertex exactly at rest, with no field and not active, would stay
   // exactly at rest under every model, so it is only read: runs of blocks
   // of eight such vertices are passed over by internal::skip_rest_blocks
   // (wide loads of the flags and the state), the other blocks go vertex by
   // vertex in index order (the same order and arithmetic as step()).
-  Sweep sweep(*this, dt);
+  Sweep<kPlain> sweep(*this, dt);
   Index* active = active_.data();
   const VertexState* state = state_.vertices.data();
   const std::uint8_t* flags = flags_.data();
   std::size_t kept = 0;
   const std::size_t count = mesh_->vertex_count();
-  auto one = [&](Index i) {
-    if (!(flags[i] & (kForced | kActive)) && at_rest(state[i])) return;
+  // at_rest by the state's bits: all three are +0 or -0 (the sign bit
+  // shifted out), as the comparisons with 0.0 say, in one test.
+  auto zero = [](const VertexState& s) {
+    std::uint64_t h, v, q;
+    std::memcpy(&h, &s.h, sizeof h);
+    std::memcpy(&v, &s.v, sizeof v);
+    std::memcpy(&q, &s.q, sizeof q);
+    return ((h | v | q) << 1) == 0;
+  };
+  static_assert(sizeof(VertexState) == 3 * sizeof(std::uint64_t));
+  auto one = [&](Index i) [[gnu::always_inline]] {
+    if (!(flags[i] & (kForced | kActive)) && zero(state[i])) return;
     if (sweep.advance(i)) active[kept++] = i;
   };
   // The state is also asked for 256 vertices (6 KB) ahead when it is larger
@@ -854,7 +877,6 @@ void DeformableSurface::step_full(double dt) {
   for (; i < count; ++i) one(static_cast<Index>(i));
   active_size_ = kept;
   sweep.finish(*this);
-  state_.time += dt;
 }
 
 // ---------------------------------------------------------------------------

@@ -268,7 +268,13 @@ class DeformableSurface {
     std::size_t operator()(const MaterialKey& k) const;
   };
 
+  template <bool kPlain>
   struct Sweep;  // the per-vertex update shared by step() and step_full()
+  // step() and step_full() after prepare_step, kPlain when plain_linear().
+  template <bool kPlain>
+  void sweep_active(double dt);
+  template <bool kPlain>
+  void sweep_full(double dt);
   // The surface's only material when it is Linear and no modulus scale is
   // set (every vertex then has f = stiffness h and the same step); null
   // otherwise.
