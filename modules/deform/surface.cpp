@@ -39,7 +39,16 @@ inline void mark_block(std::uint64_t* blocks, Index i) { blocks[i >> 12] |= std:
 
 bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
-bool at_rest(const VertexState& s) { return s.h == 0.0 && s.v == 0.0 && s.q == 0.0; }
+// h == 0.0 && v == 0.0 && q == 0.0, tested on the bits in one comparison:
+// with the sign bit shifted out, all three are +0 or -0 (a NaN is not).
+bool at_rest(const VertexState& s) {
+  static_assert(sizeof(VertexState) == 3 * sizeof(std::uint64_t));
+  std::uint64_t h, v, q;
+  std::memcpy(&h, &s.h, sizeof h);
+  std::memcpy(&v, &s.v, sizeof v);
+  std::memcpy(&q, &s.q, sizeof q);
+  return ((h | v | q) << 1) == 0;
+}
 
 // The widest rest-block skip this processor runs (step_full), chosen once.
 const internal::RestScan kRestScan = internal::best_rest_scan();
@@ -840,18 +849,8 @@ void DeformableSurface::sweep_full(double dt) {
   const std::uint8_t* flags = flags_.data();
   std::size_t kept = 0;
   const std::size_t count = mesh_->vertex_count();
-  // at_rest by the state's bits: all three are +0 or -0 (the sign bit
-  // shifted out), as the comparisons with 0.0 say, in one test.
-  auto zero = [](const VertexState& s) {
-    std::uint64_t h, v, q;
-    std::memcpy(&h, &s.h, sizeof h);
-    std::memcpy(&v, &s.v, sizeof v);
-    std::memcpy(&q, &s.q, sizeof q);
-    return ((h | v | q) << 1) == 0;
-  };
-  static_assert(sizeof(VertexState) == 3 * sizeof(std::uint64_t));
   auto one = [&](Index i) [[gnu::always_inline]] {
-    if (!(flags[i] & (kForced | kActive)) && zero(state[i])) return;
+    if (!(flags[i] & (kForced | kActive)) && at_rest(state[i])) return;
     if (sweep.advance(i)) active[kept++] = i;
   };
   // The state is also asked for 256 vertices (6 KB) ahead when it is larger
