@@ -5,7 +5,8 @@
 // press distance), a press through a small sphere never moves the contact to
 // its other side (where query_contact alone lets go), and the
 // walk takes over again once the probe is back within its range, also after
-// the proxy was left behind by a deep press that slid.
+// the proxy was left behind by a deep press that slid; without motion the
+// slide keeps the virtual vertex it starts from.
 
 #include "collision/contact.h"
 #include "common/test_support.h"
@@ -128,6 +129,34 @@ TEST(Slide, OnASphereStaysOnTheSurfaceAndIgnoresNormalMotion) {
     EXPECT_GE(sp.point.norm(), r * 0.999);
     const double tangential = (d - d.dot(n) * n).norm();
     EXPECT_NEAR((sp.point - p).norm(), tangential, 0.05 * tangential + 1e-4);
+  }
+}
+
+TEST(Slide, WithoutMotionIsTheVirtualVertexItStartsFrom) {
+  // No displacement (either sign of zero): the start triangle and weights,
+  // the interpolated point, the interpolated unit normal and the probe's
+  // offset along it (the proxy's path takes this without the slide's loop).
+  const double r = 0.05;
+  auto m = test::radial_sphere(20000, r);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.05, 1.0);
+  std::normal_distribution<double> g;
+  for (int k = 0; k < 200; ++k) {
+    const Index t = static_cast<Index>(rng() % m.triangle_count());
+    Vec3 b(u(rng), u(rng), u(rng));
+    b /= b.sum();
+    const auto& tri = m.triangles[t];
+    const Vec3 p = b[0] * m.positions[tri[0]] + b[1] * m.positions[tri[1]] + b[2] * m.positions[tri[2]];
+    const Vec3 n = (b[0] * m.normals[tri[0]] + b[1] * m.normals[tri[1]] + b[2] * m.normals[tri[2]]).normalized();
+    const Vec3 probe = p + 0.01 * Vec3(g(rng), g(rng), g(rng));
+    const Vec3 zero = k % 2 ? Vec3(-0.0, 0.0, -0.0) : Vec3::Zero();
+    const SurfacePoint sp = slide_surface_point(m, t, b, zero, probe);
+    ASSERT_EQ(sp.triangle, t) << k;
+    EXPECT_TRUE(sp.inside);
+    EXPECT_LE((sp.barycentric - b).norm(), 1e-15) << k;
+    EXPECT_LE((sp.point - p).norm(), 1e-16) << k;  // a few units in the last place of r
+    EXPECT_LE((sp.normal - n).norm(), 1e-15) << k;
+    EXPECT_NEAR(sp.offset, (probe - p).dot(n), 1e-15) << k;
   }
 }
 
