@@ -855,8 +855,15 @@ namespace {
 
 // slide_surface_point into `sp`: inlined into the tick's query, so that the
 // slid point does not go through memory on its way back (see walk).
+// start_normal, when given: the unit interpolated normal at `barycentric` on
+// `triangle`, computed as finish computes it (b[0] N0 + b[1] N1 + b[2] N2
+// over its length, that length positive and finite). It is taken only where
+// the weights the slide starts from are `barycentric` itself, bit for bit,
+// so the answer is the same with it or without it; the proxy's path has it
+// already and saves its square root and division.
 [[gnu::always_inline]] inline void slide(const mesh::SurfaceMesh& mesh, Index triangle, const Vec3& barycentric,
-                                         const Vec3& displacement, const Vec3& probe, SurfacePoint& sp) {
+                                         const Vec3& displacement, const Vec3& probe, SurfacePoint& sp,
+                                         const Vec3* start_normal = nullptr) {
   if (triangle >= mesh.triangle_count() || mesh.normals.size() != mesh.vertex_count() ||
       mesh.vertex_triangles.rows() != mesh.vertex_count() || !finite(displacement) || !finite(probe)) {
     sp = SurfacePoint{};
@@ -869,6 +876,26 @@ namespace {
   Index t = triangle, previous = kNoIndex;
   Vec3 d = displacement;  // motion still to make, m
   double length = -1;     // its length along the surface, m (set on the first triangle)
+  // The caller's normal at the start is this one only where the weights are
+  // the caller's own, bit for bit (they sum to exactly 1).
+  if (start_normal && !(b == barycentric)) start_normal = nullptr;
+  if (d.x() == 0 && d.y() == 0 && d.z() == 0) {
+    // No motion: the loop below would stop on the first triangle with the
+    // weights unchanged (no length to slide).
+    if (!start_normal) {
+      finish(mesh, t, b, probe, true, sp);
+      return;
+    }
+    // finish's virtual vertex, with the normal the caller computed the same way.
+    const mesh::Triangle& tri = mesh.triangles[t];
+    sp.triangle = t;
+    sp.barycentric = b;
+    sp.inside = true;
+    sp.point = b[0] * mesh.positions[tri[0]] + b[1] * mesh.positions[tri[1]] + b[2] * mesh.positions[tri[2]];
+    sp.normal = *start_normal;
+    sp.offset = (probe - sp.point).dot(sp.normal);
+    return;
+  }
   for (int step = 0; step < kMaxSlideSteps; ++step) {
     const mesh::Triangle& tri = mesh.triangles[t];
     const Vec3& p0 = mesh.positions[tri[0]];
@@ -884,9 +911,14 @@ namespace {
     // new plane, length kept.
     Vec3 dt;
     if (length < 0) {
-      const Vec3 nb = b[0] * mesh.normals[tri[0]] + b[1] * mesh.normals[tri[1]] + b[2] * mesh.normals[tri[2]];
-      const double nl = nb.norm();
-      const Vec3 nn = nl > 0 && std::isfinite(nl) ? Vec3(nb / nl) : nf;
+      Vec3 nn;
+      if (start_normal) {
+        nn = *start_normal;
+      } else {
+        const Vec3 nb = b[0] * mesh.normals[tri[0]] + b[1] * mesh.normals[tri[1]] + b[2] * mesh.normals[tri[2]];
+        const double nl = nb.norm();
+        nn = nl > 0 && std::isfinite(nl) ? Vec3(nb / nl) : nf;
+      }
       const double cos_nf = nn.dot(nf);
       const Vec3 across = d - d.dot(nn) * nn;
       dt = cos_nf > 0.1 ? Vec3(across - (across.dot(nf) / cos_nf) * nn) : Vec3(across - across.dot(nf) * nf);
@@ -1029,25 +1061,28 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
                   proxy_weights[2] * mesh.normals[pt[2]];
   const double pn_len = pn.norm();
   Vec3 move = Vec3::Zero();
-  if (pn_len > 0 && std::isfinite(pn_len)) {
-    const Vec3 n = pn / pn_len;
+  Vec3 n = Vec3::Zero();  // the unit normal at the proxy (when pn has a length), for the slide too
+  const bool has_normal = pn_len > 0 && std::isfinite(pn_len);
+  if (has_normal) {
+    n = pn / pn_len;
     const Vec3 motion = probe - last_probe;
-    const double across = (motion - motion.dot(n) * n).norm();
+    // How far the probe moved across n (m), taken only where it bounds a move.
+    auto across = [&] { return (motion - motion.dot(n) * n).norm(); };
     if (answered) {
       const Vec3 to_foot = ans.surface.point - proxy_point;
       const double gap = to_foot.norm();
-      if (gap > 0) move = (std::min(gap, kProxyChase * across) / gap) * to_foot;
+      if (gap > 0) move = (std::min(gap, kProxyChase * across()) / gap) * to_foot;
     } else {
       const Vec3 rel = probe - proxy_point;
       const double depth = -rel.dot(n);
       const Vec3 lateral = rel + depth * n;
       const double lateral_len = lateral.norm();
       const double excess = lateral_len - kProxyCone * std::max(depth, 0.0);
-      if (excess > 0 && lateral_len > 0) move = (std::min(excess, kProxyChase * across) / lateral_len) * lateral;
+      if (excess > 0 && lateral_len > 0) move = (std::min(excess, kProxyChase * across()) / lateral_len) * lateral;
     }
   }
   SurfacePoint slid;
-  slide(mesh, proxy_triangle, proxy_weights, move, probe, slid);
+  slide(mesh, proxy_triangle, proxy_weights, move, probe, slid, has_normal ? &n : nullptr);
   if (slid.triangle == kNoIndex) {  // unusable mesh data
     ans = query_contact(mesh, tree, probe, cursor, false);
     return ans;
