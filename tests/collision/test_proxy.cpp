@@ -6,7 +6,8 @@
 // its other side (where query_contact alone lets go), and the
 // walk takes over again once the probe is back within its range, also after
 // the proxy was left behind by a deep press that slid; without motion the
-// slide keeps the virtual vertex it starts from.
+// slide keeps the virtual vertex it starts from, and a proxy held in its
+// cone answers as that slide does, bit for bit.
 
 #include "collision/contact.h"
 #include "common/test_support.h"
@@ -16,6 +17,7 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 namespace palpa::collision {
@@ -154,7 +156,7 @@ TEST(Slide, WithoutMotionIsTheVirtualVertexItStartsFrom) {
     ASSERT_EQ(sp.triangle, t) << k;
     EXPECT_TRUE(sp.inside);
     EXPECT_LE((sp.barycentric - b).norm(), 1e-15) << k;
-    EXPECT_LE((sp.point - p).norm(), 1e-16) << k;  // a few units in the last place of r
+    EXPECT_LE((sp.point - p).norm(), 1e-16) << k;  // about 14 units in the last place of r
     EXPECT_LE((sp.normal - n).norm(), 1e-15) << k;
     EXPECT_NEAR(sp.offset, (probe - p).dot(n), 1e-15) << k;
   }
@@ -204,6 +206,46 @@ TEST(Proxy, PressPastTheFocalDistanceKeepsTheContactPoint) {
   EXPECT_GT(walk, 50);
   EXPECT_GT(proxy, 150);
   EXPECT_GT(walk_back, 10);
+}
+
+TEST(Proxy, HeldInItsConeItIsTheSlideWithoutMotion) {
+  // Pressed along the normal past half the focal distance, the probe stays in
+  // the proxy's cone, so the proxy does not move: its answer is the slide's
+  // without motion from the last answer, bit for bit. Where the weights sum
+  // to exactly 1, track_contact builds it with the normal it computed itself
+  // (the slide's shortcut), and that must give the same bits as the slide.
+  const double r = 0.05;
+  auto m = test::radial_sphere(20000, r);
+  const VertexTree tree(m.positions);
+  auto bits = [](const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0; };
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g;
+  int compared = 0, exact_weights = 0;
+  for (int k = 0; k < 24; ++k) {
+    const Vec3 dir = Vec3(g(rng), g(rng), g(rng)).normalized();
+    ContactCursor cursor;
+    const ContactAnswer first = track_contact(m, tree, r * dir - 1e-4 * dir, cursor, false);
+    ASSERT_LT(first.surface.offset, 0) << k;
+    for (int j = 1; j <= 10; ++j) {
+      const double d = 0.6 * r + 0.08 * r * j;  // 0.68 R to 1.4 R, past R / 2
+      const Vec3 probe = first.surface.point - d * first.surface.normal;
+      const Index t = cursor.triangle;
+      const Vec3 b = cursor.barycentric;
+      const ContactAnswer a = track_contact(m, tree, probe, cursor, true);
+      ASSERT_EQ(a.path, ContactPath::Proxy) << k << " " << j;
+      const SurfacePoint expected = slide_surface_point(m, t, b, Vec3::Zero(), probe);
+      EXPECT_EQ(a.surface.triangle, expected.triangle);
+      EXPECT_TRUE(bits(a.surface.barycentric, expected.barycentric)) << k << " " << j;
+      EXPECT_TRUE(bits(a.surface.point, expected.point)) << k << " " << j;
+      EXPECT_TRUE(bits(a.surface.normal, expected.normal)) << k << " " << j;
+      EXPECT_EQ(std::memcmp(&a.surface.offset, &expected.offset, sizeof(double)), 0) << k << " " << j;
+      EXPECT_NEAR(-a.surface.offset, d, 1e-12);
+      ++compared;
+      exact_weights += bits(b / b.sum(), b);
+    }
+  }
+  EXPECT_EQ(compared, 240);
+  EXPECT_GT(exact_weights, 0);  // the shortcut was taken
 }
 
 TEST(Proxy, LeftBehindByADeepPressItRejoinsTheWalkWithoutAJump) {
