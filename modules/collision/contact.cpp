@@ -267,8 +267,16 @@ Vec3 closest_barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   return {1 - v - w, v, w};
 }
 
+// b[0] v0 + b[1] v1 + b[2] v2, summed in that order. The contact point, the
+// proxy and the slide interpolate over a triangle's corners through here, so
+// that the same weights and corners give the same bits wherever it is done:
+// the proxy's path hands the slide a normal it computed on that promise.
+[[gnu::always_inline]] inline Vec3 interpolate(const Vec3& v0, const Vec3& v1, const Vec3& v2, const Vec3& b) {
+  return b[0] * v0 + b[1] * v1 + b[2] * v2;
+}
+
 inline Vec3 interpolate(const std::vector<Vec3>& values, const mesh::Triangle& tri, const Vec3& b) {
-  return b[0] * values[tri[0]] + b[1] * values[tri[1]] + b[2] * values[tri[2]];
+  return interpolate(values[tri[0]], values[tri[1]], values[tri[2]], b);
 }
 
 // False when the interpolated-normal solution of triangle t cannot lie
@@ -377,19 +385,29 @@ void visit(const mesh::SurfaceMesh& mesh, Index v, bool ring, bool wide, F&& f) 
     }
 }
 
-// The virtual vertex on triangle t (corner positions p, m, and unit normals
-// nrm) at weights b: interpolated point and unit normal, and the offset of
-// the probe along that normal.
-[[gnu::always_inline]] inline void finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec3& b,
-                                          const Vec3& probe, bool inside, SurfacePoint& sp) {
+// The virtual vertex on triangle t at weights b, given its point (m) and
+// unit normal: the offset of the probe along that normal.
+[[gnu::always_inline]] inline void finish_at(Index t, const Vec3& b, const Vec3& point, const Vec3& normal,
+                                             const Vec3& probe, bool inside, SurfacePoint& sp) {
   sp.triangle = t;
   sp.barycentric = b;
   sp.inside = inside;
-  sp.point = b[0] * p[0] + b[1] * p[1] + b[2] * p[2];
-  const Vec3 n = b[0] * nrm[0] + b[1] * nrm[1] + b[2] * nrm[2];
+  sp.point = point;
+  sp.normal = normal;
+  sp.offset = (probe - point).dot(normal);
+}
+
+// The virtual vertex on triangle t (corner positions p, m, and unit normals
+// nrm) at weights b: interpolated point and unit normal (the interpolated
+// normal over its length, where that is positive and finite), and the
+// offset of the probe along that normal.
+[[gnu::always_inline]] inline void finish(const Vec3 (&p)[3], const Vec3 (&nrm)[3], Index t, const Vec3& b,
+                                          const Vec3& probe, bool inside, SurfacePoint& sp) {
+  const Vec3 n = interpolate(nrm[0], nrm[1], nrm[2], b);
   const double len = n.norm();
-  sp.normal = len > 0 && std::isfinite(len) ? Vec3(n / len) : Vec3((p[1] - p[0]).cross(p[2] - p[0]).normalized());
-  sp.offset = (probe - sp.point).dot(sp.normal);
+  finish_at(t, b, interpolate(p[0], p[1], p[2], b),
+            len > 0 && std::isfinite(len) ? Vec3(n / len) : Vec3((p[1] - p[0]).cross(p[2] - p[0]).normalized()), probe,
+            inside, sp);
 }
 
 [[gnu::always_inline]] inline void finish(const mesh::SurfaceMesh& mesh, Index t, const Vec3& b, const Vec3& probe,
@@ -856,11 +874,12 @@ namespace {
 // slide_surface_point into `sp`: inlined into the tick's query, so that the
 // slid point does not go through memory on its way back (see walk).
 // start_normal, when given: the unit interpolated normal at `barycentric` on
-// `triangle`, computed as finish computes it (b[0] N0 + b[1] N1 + b[2] N2
-// over its length, that length positive and finite). It is taken only where
-// the weights the slide starts from are `barycentric` itself, bit for bit,
-// so the answer is the same with it or without it; the proxy's path has it
-// already and saves its square root and division.
+// `triangle`, computed as finish computes it (interpolate over the corners'
+// normals, divided by its length, that length positive and finite). It is
+// taken only where the weights the slide starts from are `barycentric`
+// itself, bit for bit (as when they sum to exactly 1), so the answer is the
+// same with it or without it; the proxy's path has it already and saves a
+// square root and a division (elsewhere it is dropped, at no gain).
 [[gnu::always_inline]] inline void slide(const mesh::SurfaceMesh& mesh, Index triangle, const Vec3& barycentric,
                                          const Vec3& displacement, const Vec3& probe, SurfacePoint& sp,
                                          const Vec3* start_normal = nullptr) {
@@ -877,7 +896,7 @@ namespace {
   Vec3 d = displacement;  // motion still to make, m
   double length = -1;     // its length along the surface, m (set on the first triangle)
   // The caller's normal at the start is this one only where the weights are
-  // the caller's own, bit for bit (they sum to exactly 1).
+  // the caller's own, bit for bit (as when they sum to exactly 1).
   if (start_normal && !(b == barycentric)) start_normal = nullptr;
   if (d.x() == 0 && d.y() == 0 && d.z() == 0) {
     // No motion: the loop below would stop on the first triangle with the
@@ -887,13 +906,7 @@ namespace {
       return;
     }
     // finish's virtual vertex, with the normal the caller computed the same way.
-    const mesh::Triangle& tri = mesh.triangles[t];
-    sp.triangle = t;
-    sp.barycentric = b;
-    sp.inside = true;
-    sp.point = b[0] * mesh.positions[tri[0]] + b[1] * mesh.positions[tri[1]] + b[2] * mesh.positions[tri[2]];
-    sp.normal = *start_normal;
-    sp.offset = (probe - sp.point).dot(sp.normal);
+    finish_at(t, b, interpolate(mesh.positions, mesh.triangles[t], b), *start_normal, probe, true, sp);
     return;
   }
   for (int step = 0; step < kMaxSlideSteps; ++step) {
@@ -915,7 +928,7 @@ namespace {
       if (start_normal) {
         nn = *start_normal;
       } else {
-        const Vec3 nb = b[0] * mesh.normals[tri[0]] + b[1] * mesh.normals[tri[1]] + b[2] * mesh.normals[tri[2]];
+        const Vec3 nb = interpolate(mesh.normals, tri, b);
         const double nl = nb.norm();
         nn = nl > 0 && std::isfinite(nl) ? Vec3(nb / nl) : nf;
       }
@@ -1027,8 +1040,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   const Vec3 proxy_weights = weights_or_centroid(cursor.barycentric);
   const Vec3 last_probe = cursor.probe;
   const mesh::Triangle& pt = mesh.triangles[proxy_triangle];
-  const Vec3 proxy_point = proxy_weights[0] * mesh.positions[pt[0]] + proxy_weights[1] * mesh.positions[pt[1]] +
-                           proxy_weights[2] * mesh.positions[pt[2]];
+  const Vec3 proxy_point = interpolate(mesh.positions, pt, proxy_weights);
   // Compared squared first: |a|^2 <= 4 |m|^2 gives |a| <= 2 |m| <= reach
   // exactly in floating point (sqrt is correctly rounded and monotone, and
   // sqrt(4 x) = 2 sqrt(x)), so the square roots are taken only otherwise.
@@ -1057,8 +1069,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // slides along the surface towards the probe's side by the excess, with
   // the same limit (so it cannot run away where the probe is deeper than
   // the centre of curvature), never leaving the surface.
-  const Vec3 pn = proxy_weights[0] * mesh.normals[pt[0]] + proxy_weights[1] * mesh.normals[pt[1]] +
-                  proxy_weights[2] * mesh.normals[pt[2]];
+  const Vec3 pn = interpolate(mesh.normals, pt, proxy_weights);
   const double pn_len = pn.norm();
   Vec3 move = Vec3::Zero();
   Vec3 n = Vec3::Zero();  // the unit normal at the proxy (when pn has a length), for the slide too
