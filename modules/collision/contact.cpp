@@ -1069,7 +1069,9 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   // slides along the surface towards the probe's side by the excess, with
   // the same limit (so it cannot run away where the probe is deeper than
   // the centre of curvature), never leaving the surface.
-  const Vec3 pn = interpolate(mesh.normals, pt, proxy_weights);
+  // (Read only from normals that are there: without them the walk above
+  // declined, and the slide below declines too.)
+  const Vec3 pn = mesh.normals.size() == mesh.vertex_count() ? interpolate(mesh.normals, pt, proxy_weights) : Vec3::Zero();
   const double pn_len = pn.norm();
   Vec3 move = Vec3::Zero();
   Vec3 n = Vec3::Zero();  // the unit normal at the proxy (when pn has a length), for the slide too

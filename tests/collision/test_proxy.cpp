@@ -7,7 +7,8 @@
 // walk takes over again once the probe is back within its range, also after
 // the proxy was left behind by a deep press that slid; without motion the
 // slide keeps the virtual vertex it starts from, and a proxy held in its
-// cone answers as that slide does, bit for bit.
+// cone answers as that slide does, bit for bit; a cursor in contact asked on
+// a mesh without its normals gives no triangle (and reads none).
 
 #include "collision/contact.h"
 #include "common/test_support.h"
@@ -391,6 +392,34 @@ TEST(Proxy, ThePreparedTrianglesTheCursorKeepsGiveTheAnswersOfFreshOnes) {
   EXPECT_GT(proxies, 200);
   EXPECT_GT(walks, 100);
   EXPECT_GT(several, 100);
+}
+
+TEST(Proxy, AMeshWithoutItsNormalsGivesNoTriangleInContact) {
+  // A cursor held on a proxy (a press past half the focal distance), then
+  // asked on a copy of the mesh that has lost its normals (a mesh not fit
+  // for the query: its frames are not the cursor's, so the walk declines):
+  // the query must read no normal that is not there and give no triangle,
+  // on every path, as query_contact does for such a mesh.
+  const double r = 0.05;
+  const auto m = test::radial_sphere(20000, r);
+  const VertexTree tree(m.positions);
+  const Vec3 dir = Vec3(0.3, -0.5, 0.8).normalized();
+  ContactCursor cursor;
+  const ContactAnswer first = track_contact(m, tree, r * dir - 1e-4 * dir, cursor, false);
+  ASSERT_LT(first.surface.offset, 0);
+  ContactAnswer deep;
+  for (int k = 1; k <= 10; ++k) deep = track_contact(m, tree, first.surface.point - 0.07 * r * k * first.surface.normal, cursor, true);
+  ASSERT_EQ(deep.path, ContactPath::Proxy);  // 0.7 R deep: past R / 2
+  auto bare = m;
+  bare.normals.clear();
+  bare.normals.shrink_to_fit();
+  for (const double d : {0.7 * r, 0.1 * r}) {  // the proxy's depth, and the walk's
+    ContactCursor held = cursor;
+    const ContactAnswer a = track_contact(bare, tree, first.surface.point - d * first.surface.normal, held, true);
+    EXPECT_EQ(a.surface.triangle, kNoIndex) << d / r << " R";
+    EXPECT_EQ(query_contact(bare, tree, first.surface.point - d * first.surface.normal, held, false).surface.triangle,
+              kNoIndex);
+  }
 }
 
 }  // namespace
