@@ -500,14 +500,22 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
   return due;
 }
 
-// The last tick's haptic_tick again, from copies of the memories it left:
-// same reads, nothing kept.
-void LoopCore::warm_caches(const deform::DeformableSurface& surface) noexcept {
+// The last tick's haptic_tick again, from copies of the memories it left,
+// then (rehearse_corners) a crossing past each probe's nearest corner on
+// those copies: same reads, nothing kept.
+void LoopCore::warm_caches(const deform::DeformableSurface& surface, bool rehearse_corners) noexcept {
   const std::size_t dense = last_dense_;
   for (std::size_t d = 0; d < dense; ++d) set_warm_up_memory(state_.memory[slot_of_[d]], warm_memory_[d]);
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
               std::span<ProbeMemory>(warm_memory_.data(), dense), std::span<ProbeOutput>(warm_outputs_.data(), dense),
               state_.force, state_.shape, last_tissue_ ? &tissue_tick_ : nullptr);
+  if (!rehearse_corners) return;
+  const mesh::SurfaceMesh& mesh = surface.mesh();
+  for (std::size_t d = 0; d < dense; ++d) {
+    Vec3 past = Vec3::Zero();
+    if (corner_rehearsal_point(mesh, warm_memory_[d], past))
+      (void)collision::track_contact(mesh, tree_, past, warm_memory_[d].cursor, true);
+  }
 }
 
 }  // namespace palpa::haptics

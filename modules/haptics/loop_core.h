@@ -322,9 +322,15 @@ class LoopCore {
   /// CPU. A probe the last tick found hovering clear of the surface
   /// (collision::ContactPath::Clear, no search) is asked of the tree here,
   /// so that the tree's path is in the cache on the tick the probe leaves
-  /// its clearance. Costs about one
+  /// its clearance. With `rehearse_corners` (the caller has just run a
+  /// step on this thread), each probe in contact is then queried once more
+  /// on its copy, past the corner it is nearest (corner_rehearsal_point),
+  /// so that a crossing round that corner finds its triangles and the walk's
+  /// code in the cache, which the step pushed out (docs/PERFORMANCE.md,
+  /// round 31). The haptic thread's warm-ups do not: there the step runs on
+  /// another CPU. Costs about one
   /// tick (microseconds); no allocation, no lock.
-  void warm_caches(const deform::DeformableSurface& surface) noexcept;
+  void warm_caches(const deform::DeformableSurface& surface, bool rehearse_corners = false) noexcept;
   /// What the last warm_caches found for each probe of the last tick, in
   /// the order of its dense probes (for tests).
   std::span<const ProbeOutput> last_warm() const noexcept {

@@ -115,6 +115,18 @@ inline void set_warm_up_memory(const ProbeMemory& m, ProbeMemory& w) {
   w.cursor.clearance = 0;
 }
 
+/// Where a warm-up rehearses a crossing past a corner (LoopCore::warm_caches):
+/// the probe's last position (m) carried past the corner of its contact
+/// triangle it is nearest by a quarter of that corner's distance from the
+/// contact point, at the same offset from the surface. A probe passing near
+/// a corner crosses two or three triangles round it in one tick, reading
+/// triangles, corners and code that no other tick reads; a query there on
+/// the warm-up's copy of the memory brings them into the cache. The move is
+/// at most 1.25 x 2/3 of the triangle's longest edge (the corner's weight is
+/// at least 1/3), within the walk's jump test. False without a contact
+/// triangle (`point` unchanged).
+bool corner_rehearsal_point(const mesh::SurfaceMesh& mesh, const ProbeMemory& m, Vec3& point);
+
 /// Runs one tick for probes.size() probes against the surface's current
 /// state. `outputs` and `memory` must have the same size as `probes`; with
 /// `memory_slots`, probe i's memory is memory[memory_slots[i]] instead (so

@@ -159,8 +159,10 @@ void Session::deform(const DeformRequest& r) {
   apply_deform_request(*surface_, r, scratch_, surface_field_);
   // The step streamed the contacts' patches (megabytes at 1M vertices)
   // through this thread's cache; the next tick would pay for it (issue 8,
-  // target 3: its p99 was about twice the other ticks').
-  core_->warm_caches(*surface_);
+  // target 3: its p99 was about twice the other ticks'), and a probe's
+  // crossing past a corner found neither its triangles nor the walk's code
+  // (round 31): the warm-up rehearses that crossing too.
+  core_->warm_caches(*surface_, true);
   note_edits(r.edits);
   generation_ = r.generation;
   model_time_ = r.time;

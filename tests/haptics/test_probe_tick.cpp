@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
@@ -274,6 +275,56 @@ TEST(HapticTick, SlidingProbeWalksAndMatchesAFreshTick) {
     }
   }
   EXPECT_EQ(walked, 399);
+}
+
+TEST(HapticTick, TheWarmUpRehearsesACrossingPastTheNearestCorner) {
+  // A probe 1 mm deep in contact (a walk's answer): the rehearsal point is
+  // the closed form corner + (corner - contact) / 4 + (probe - contact), and
+  // a query there on a copy of the cursor, as LoopCore::warm_caches runs
+  // it, walks (no jump to the tree) into another triangle round that corner
+  // (past it: a convex triangle holds no point beyond its corner on the ray
+  // from inside). Most land on a triangle that shares no edge with the
+  // probe's own: the crossing past a corner the rehearsal is for.
+  const SphereScene scene(linear(400));
+  std::mt19937 rng(11);
+  int past_corner = 0;
+  constexpr int kProbes = 60;
+  for (int k = 0; k < kProbes; ++k) {
+    const Vec3 dir = direction(rng);
+    ProbeMemory memory;
+    ProbeOutput out;
+    for (int i = 0; i < 2; ++i) {  // tree, then walk
+      const ProbeInput in{dir * (kRadius - 0.001) + 1e-6 * i * dir.unitOrthogonal(), Vec3::Zero()};
+      haptic_tick(*scene.surface, *scene.tree, std::span(&in, 1), std::span(&memory, 1), std::span(&out, 1),
+                  ForceParams{}, deform::ShapeFunction{});
+    }
+    ASSERT_EQ(out.path, collision::ContactPath::Walk) << k;
+    const mesh::SurfaceMesh& m = *scene.mesh;
+    const Index start = memory.cursor.triangle;
+    const auto& tri = m.triangles[start];
+    const Vec3& b = memory.cursor.barycentric;
+    const int nearest = b[0] >= b[1] && b[0] >= b[2] ? 0 : (b[1] >= b[2] ? 1 : 2);
+    const Vec3 contact = b[0] * m.positions[tri[0]] + b[1] * m.positions[tri[1]] + b[2] * m.positions[tri[2]];
+    const Vec3& corner = m.positions[tri[nearest]];
+    Vec3 past = Vec3::Zero();
+    ASSERT_TRUE(corner_rehearsal_point(m, memory, past));
+    EXPECT_LE((past - (corner + 0.25 * (corner - contact) + (memory.cursor.probe - contact))).norm(), 1e-15);
+    collision::ContactCursor copy = memory.cursor;
+    const collision::ContactAnswer a = collision::track_contact(m, *scene.tree, past, copy, true);
+    EXPECT_EQ(a.path, collision::ContactPath::Walk) << k;
+    ASSERT_NE(a.surface.triangle, kNoIndex);
+    EXPECT_NE(a.surface.triangle, start) << k;
+    const auto& landed = m.triangles[a.surface.triangle];
+    EXPECT_TRUE(landed[0] == tri[nearest] || landed[1] == tri[nearest] || landed[2] == tri[nearest]) << k;
+    const auto& across = m.triangle_neighbors[start];
+    past_corner += std::find(across.begin(), across.end(), a.surface.triangle) == across.end();
+    EXPECT_EQ(memory.cursor.triangle, start);  // the copy walked, not the memory
+  }
+  EXPECT_GT(past_corner, kProbes / 2);
+  // No contact triangle, no rehearsal.
+  Vec3 unchanged(1, 2, 3);
+  EXPECT_FALSE(corner_rehearsal_point(*scene.mesh, ProbeMemory{}, unchanged));
+  EXPECT_EQ(unchanged, Vec3(1, 2, 3));
 }
 
 TEST(HapticTick, ContactHoldsWhileAnUnderdampedSurfaceOvershoots) {
