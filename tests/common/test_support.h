@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -42,7 +43,35 @@ inline std::string shared_data_missing_message() {
       GTEST_SKIP() << ::palpa::test::shared_data_missing_message();     \
   } while (0)
 
-/// A fresh empty folder under the system temp dir, for files a test writes.
+/// The folders temp_dir has made in this process, removed when the process
+/// exits normally (not by a forked child, whose exit would take them from
+/// its parent; a process that is killed leaves them). Set
+/// PALPA_KEEP_TEST_FILES to keep them, to look at what a test wrote.
+class TempDirs {
+ public:
+  static TempDirs& instance() {
+    static TempDirs dirs;
+    return dirs;
+  }
+  void add(const std::filesystem::path& d) {
+    for (const auto& p : paths_)
+      if (p == d) return;
+    paths_.push_back(d);
+  }
+  ~TempDirs() {
+    if (::getpid() != owner_ || std::getenv("PALPA_KEEP_TEST_FILES") != nullptr) return;
+    std::error_code ec;
+    for (const auto& p : paths_) std::filesystem::remove_all(p, ec);
+  }
+
+ private:
+  TempDirs() : owner_(::getpid()) {}
+  pid_t owner_;
+  std::vector<std::filesystem::path> paths_;
+};
+
+/// A fresh empty folder under the system temp dir, for files a test writes,
+/// removed when the test process exits (TempDirs).
 /// The process id is part of its name: builds in several checkouts on one
 /// machine run the same tests at once, and a shared folder let one run
 /// delete another's files (PalpaHeadless failed "cannot read PNG" so).
@@ -51,6 +80,7 @@ inline std::filesystem::path temp_dir(const std::string& name) {
            ("palpa_test_" + name + "_" + std::to_string(static_cast<long>(::getpid())));
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
+  TempDirs::instance().add(d);
   return d;
 }
 
