@@ -97,12 +97,14 @@ struct Options {
   std::string only;      // only meshes whose name contains this
   int repeat = 1;        // contact queries: runs of each method's path, least time per query kept
   int query_loop = 0;    // > 0: only track_contact along the paths, this many passes (--query-loop)
+  int same_phase_blocks = 0;  // > 0: only targets 3 and 4 interleaved, the meshes in turn in blocks (--same-phase)
 };
 
 void print_usage() {
   std::printf(
       "usage: palpa-bench [--quick] [--json FILE] [--shared-data DIR] [--organ-unit U] [--no-spheres]\n"
       "                   [--ticks N] [--seed N] [--repeat N] [--tissue-map] [--hover] [--query-loop N]\n"
+      "                   [--same-phase N] [--only TEXT] [--no-threaded] (further options below)\n"
       "  --quick            reduced set (spheres 10k, 100k, 1M; fewer ticks; no brute force above 100k)\n"
       "  --json FILE        also write the records as a JSON array to FILE\n"
       "  --shared-data DIR  folder of shared organ meshes (default %s)\n"
@@ -133,7 +135,11 @@ void print_usage() {
       "  --query-loop N     only the tick's contact query (track_contact) along each mesh's paths, 1 and 3\n"
       "                     probes, N passes with nothing else in the loop: its time per query and a hash\n"
       "                     of the answers' bits (for profilers, e.g. callgrind collecting only in\n"
-      "                     'palpa::collision::track_contact*', and to check that a change keeps the answers)\n",
+      "                     'palpa::collision::track_contact*', and to check that a change keeps the answers)\n"
+      "  --same-phase N     only targets 3 and 4 on the interleaved run (the ticks' first command's paths\n"
+      "                     and steps): the 10k and 1M spheres and the 1M fan and sliver spheres, each\n"
+      "                     run cut into N blocks run in turn, so that all meet the same phases of the\n"
+      "                     machine; the first tenth of each block (at most 100 ticks) runs untimed\n",
       PALPA_BENCH_SHARED_ORGANS_DIR);
 }
 
@@ -216,6 +222,11 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       if (auto e = number("--query-loop", n)) return e;
       if (n < 1 || n > 1000) return "--query-loop: " + std::to_string(n) + " passes is outside 1 to 1000";
       o.query_loop = static_cast<int>(n);
+    } else if (a == "--same-phase") {
+      std::uint64_t n = 0;
+      if (auto e = number("--same-phase", n)) return e;
+      if (n < 1 || n > 1000) return "--same-phase: " + std::to_string(n) + " blocks is outside 1 to 1000";
+      o.same_phase_blocks = static_cast<int>(n);
     } else if (a == "--help" || a == "-h") {
       print_usage();
       std::exit(0);
@@ -223,8 +234,8 @@ std::optional<std::string> parse_options(int argc, char** argv, Options& o) {
       return "unknown option '" + a + "'";
     }
   }
-  if (o.tissue_map_only + o.hover_only + (o.query_loop > 0) > 1)
-    return "--tissue-map, --hover and --query-loop each run only their own section: give one";
+  if (o.tissue_map_only + o.hover_only + (o.query_loop > 0) + (o.same_phase_blocks > 0) > 1)
+    return "--tissue-map, --hover, --query-loop and --same-phase each run only their own section: give one";
   return std::nullopt;
 }
 
@@ -468,6 +479,273 @@ std::vector<double> time_queries_least(int repeat, Reset&& reset, const bench::P
   return least;
 }
 
+// The probes' paths of every run: kMaxProbes probes (the 1-probe runs
+// use probe 0's) for the plan's warm-up and timed ticks, sliding at
+// kProbeSpeed kProbeDepth below the surface, from the run's seed.
+bench::PathOptions path_options(const Plan& plan, const Options& opt) {
+  bench::PathOptions po;
+  po.probes = kMaxProbes;
+  po.ticks = plan.warmup + plan.ticks;
+  po.dt = kTickPeriod;
+  po.speed = kProbeSpeed;
+  po.depth = kProbeDepth;
+  po.seed = opt.seed;
+  return po;
+}
+
+// The session model of the interleaved run: this mesh and tree, 1 kHz
+// ticks, a deformation step every kDeformEvery ticks, Wendland contacts of
+// radius kShapeRadius, the default force parameters.
+std::shared_ptr<haptics::SessionModel> bench_model(const std::shared_ptr<mesh::SurfaceMesh>& m,
+                                                   const std::shared_ptr<const collision::VertexTree>& tree) {
+  auto model = std::make_shared<haptics::SessionModel>();
+  model->mesh = m;
+  model->tree = tree;
+  model->config.rate_hz = 1.0 / kTickPeriod;
+  model->config.deform_rate_hz = 1.0 / kDeformPeriod;
+  model->config.shape.kind = deform::ShapeKind::Wendland;
+  model->config.shape.radius = kShapeRadius;
+  model->config.force = haptics::ForceParams{};
+  model->config.velocity_cutoff_hz = 1e4;  // the paths are smooth: velocity by plain finite difference
+  return model;
+}
+
+// ---------------------------------------------------------------------------
+// The interleaved run: a session of `probes` probes on a model, its ticks
+// timed on this thread with a deformation step every kDeformEvery ticks
+// after them (Session::deform, also on this thread, timed apart), the ticks
+// split by what happened in them. run() may be called for consecutive
+// ranges of ticks: the session goes on where the last range stopped.
+class InterleavedTicks {
+ public:
+  InterleavedTicks(const std::shared_ptr<haptics::SessionModel>& model, std::size_t vertices, int probes,
+                   bool keep_requests)
+      : session(model, deform::MaterialArrays::uniform(vertices, deform::Material{}), setups_for(probes)),
+        probes_(probes),
+        keep_requests_(keep_requests) {}
+
+  // Ticks k of paths in [from, to), timed (and their steps) where k >= timed_from.
+  void run(const bench::ProbePaths& paths, std::size_t from, std::size_t to, std::size_t timed_from) {
+    deform::DeformableSurface& surface = session.surface();
+    const int probes = probes_;
+    for (std::size_t k = from; k < to && k < paths.ticks; ++k) {
+      const double t = static_cast<double>(k) * kTickPeriod;
+      for (int p = 0; p < probes; ++p) {
+        inputs_[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
+      }
+      std::array<Index, kMaxProbes> triangle_before{}, ring_vertex_before{};
+      std::array<int, kMaxProbes> ring_stage_before{};
+      for (int p = 0; p < probes; ++p) {
+        const haptics::ProbeMemory& pm = session.core().state().memory[p];
+        triangle_before[p] = pm.cursor.triangle;
+        ring_vertex_before[p] = pm.ring_vertex;
+        ring_stage_before[p] = pm.ring_stage;
+      }
+      const auto a = Clock::now();
+      const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs_.data(), probes),
+                                    std::span<haptics::ProbeTickResult>(results_.data(), probes));
+      const auto b = Clock::now();
+      const bool after_step = stepped_;
+      stepped_ = due;
+      if (k >= timed_from) {
+        const double ns = elapsed_ns(a, b);
+        tick_ns.push_back(ns);
+        (after_step ? tick_after_step_ns : tick_other_ns).push_back(ns);
+        int slowest = 0;  // 0 walk, 1 proxy, 2 tree
+        for (int p = 0; p < probes; ++p) {
+          const auto path = static_cast<collision::ContactPath>(results_[p].path);
+          contact_ticks += results_[p].in_contact;
+          walk_ticks += path == collision::ContactPath::Walk;
+          if (path == collision::ContactPath::Tree) {
+            slowest = 2;
+          } else if (path == collision::ContactPath::Proxy) {
+            slowest = std::max(slowest, 1);
+          }
+        }
+        tick_by_path[slowest].push_back(ns);
+        bool crossed = false, cornered = false, ring = false;
+        for (int p = 0; p < probes; ++p) {
+          const haptics::ProbeMemory& pm = session.core().state().memory[p];
+          ring |= pm.ring_vertex != ring_vertex_before[p] || pm.ring_stage != ring_stage_before[p];
+          const Index now = pm.cursor.triangle, before = triangle_before[p];
+          if (now == before) continue;
+          crossed = true;
+          // Past a corner: into a triangle that shares no edge with the last.
+          const mesh::SurfaceMesh& m = surface.mesh();
+          if (before < m.triangle_neighbors.size() && now != kNoIndex) {
+            const auto& across = m.triangle_neighbors[before];
+            cornered |= std::find(across.begin(), across.end(), now) == across.end();
+          }
+        }
+        (crossed ? tick_cross_ns : tick_stay_ns).push_back(ns);
+        if (cornered) tick_corner_ns.push_back(ns);
+        if (!crossed) (ring ? tick_ring_ns : tick_quiet_ns).push_back(ns);
+        if (!crossed && !ring) (after_step ? tick_quiet_after_step_ns : tick_quiet_later_ns).push_back(ns);
+      }
+      if (due) {
+        if (keep_requests_) requests.push_back(session.core().request());
+        const auto c = Clock::now();
+        session.deform(session.core().request());
+        const auto d = Clock::now();
+        if (k >= timed_from) {
+          step_ns.push_back(elapsed_ns(c, d));
+          active_sum += static_cast<double>(surface.active_count());
+        }
+      }
+      if (k % kDirtyEvery == 0) (void)surface.take_dirty_ranges();
+    }
+  }
+
+  haptics::Session session;
+  // Ticks, and ticks split by whether a step ran just before them on this thread.
+  std::vector<double> tick_ns, step_ns, tick_after_step_ns, tick_other_ns;
+  // Ticks split by whether a probe's contact triangle changed in them (a
+  // crossing: the walk prepares a new triangle, so the tick's cost grows
+  // with how many triangles a probe crosses per second, that is with the
+  // mesh's density along the path).
+  std::vector<double> tick_cross_ns, tick_stay_ns;
+  // Of those, the ticks where a probe passed a corner of its triangle
+  // (the walk steps at least twice).
+  std::vector<double> tick_corner_ns;
+  // The ticks without a crossing, split by whether a probe's fetch of the
+  // ring round its nearest corner (ProbeMemory::ring_vertex) moved on in
+  // them: a new corner, or one more stage. Their share grows with the
+  // mesh's density along the path, as the crossings' does.
+  std::vector<double> tick_ring_ns, tick_quiet_ns;
+  // The quiet ones again, split by whether a step ran just before them.
+  std::vector<double> tick_quiet_after_step_ns, tick_quiet_later_ns;
+  // Ticks split by the slowest contact path any probe took (walk < proxy < tree).
+  std::array<std::vector<double>, 3> tick_by_path;
+  double active_sum = 0;                          // active vertices summed over the timed steps
+  std::size_t contact_ticks = 0, walk_ticks = 0;  // probe-ticks in contact, answered by the walk
+  std::vector<haptics::DeformRequest> requests;   // each step's request (keep_requests)
+
+ private:
+  static std::vector<haptics::ProbeSetup> setups_for(int probes) {
+    std::vector<haptics::ProbeSetup> setups(static_cast<std::size_t>(probes));
+    for (auto& su : setups) {
+      su.name = "bench probe";
+      su.spec.position_dof = 3;  // no force output: the model's force, no safety ramp
+      su.safety.max_jump = 1e3;
+    }
+    return setups;
+  }
+  int probes_;
+  bool keep_requests_;
+  bool stepped_ = false;
+  std::array<haptics::ProbeTickInput, kMaxProbes> inputs_{};
+  std::array<haptics::ProbeTickResult, kMaxProbes> results_{};
+};
+
+// ---------------------------------------------------------------------------
+// --same-phase: targets 3 and 4 on the interleaved run, with the meshes'
+// runs cut into blocks run in turn (the 10k sphere, the 1M sphere, its fan
+// and sliver twins), so that every mesh's ticks meet the same phases of
+// the machine: on a shared VM the same run's p99 moves by 2x from minute
+// to minute, and the full bench runs these meshes a minute or more apart.
+// Each block's first tenth (at most 100 ticks) runs untimed: the mesh
+// before it has just used the caches. The figures are each mesh's pooled
+// timed ticks, and each round of blocks' ratios.
+void run_same_phase(const Plan& plan, const Options& opt, Results& res) {
+  struct Case {
+    std::string name;
+    std::shared_ptr<mesh::SurfaceMesh> mesh;
+    std::shared_ptr<haptics::SessionModel> model;
+    std::optional<bench::ProbePaths> paths;
+  };
+  std::array<Case, 4> cases;
+  cases[0].name = sphere_name(10'000);
+  cases[0].mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_sphere(10'000, kSphereRadius));
+  cases[1].name = sphere_name(1'000'000);
+  cases[1].mesh = std::make_shared<mesh::SurfaceMesh>(mesh::make_sphere(1'000'000, kSphereRadius));
+  cases[2].name = "fan-sphere-1M";
+  cases[2].mesh =
+      std::make_shared<mesh::SurfaceMesh>(bench::make_fan_sphere(1'000'000, kSphereRadius, 40, 0.015));
+  cases[3].name = "sliver-sphere-1M";
+  cases[3].mesh = std::make_shared<mesh::SurfaceMesh>(bench::make_sliver_sphere(1'000'000, kSphereRadius));
+  for (Case& c : cases) {
+    if (opt.spatial_order) mesh::reorder_spatially(*c.mesh);
+    const auto tree = std::make_shared<const collision::VertexTree>(*c.mesh);
+    const bench::CgalClosestPoint cgal(*c.mesh);
+    c.paths.emplace(make_probe_paths(*c.mesh, cgal, path_options(plan, opt)));
+    c.model = bench_model(c.mesh, tree);
+  }
+  const std::size_t blocks = static_cast<std::size_t>(opt.same_phase_blocks);
+  const std::size_t block = std::max<std::size_t>(1, plan.ticks / blocks);
+  const std::size_t untimed = std::min<std::size_t>(100, block / 10);
+  std::printf("same phase: %zu blocks of %zu ticks per mesh (the first %zu of each untimed), the meshes in turn "
+              "(%s, %s, %s, %s); the interleaved run's paths and steps\n",
+              blocks, block, untimed, cases[0].name.c_str(), cases[1].name.c_str(), cases[2].name.c_str(),
+              cases[3].name.c_str());
+  // Ratios of case `num` to case `den`: of the pooled p99s, and each round's.
+  struct Ratio {
+    const char* what;
+    std::size_t num, den;
+    double limit;
+  };
+  const std::array<Ratio, 3> ratios_of = {Ratio{"target 3, p99 growth 10k -> 1M", 1, 0, 1.5},
+                                          Ratio{"target 4, fans over the even sphere", 2, 1, 2.0},
+                                          Ratio{"target 4, slivers over the even sphere", 3, 1, 2.0}};
+  for (int probes : {1, kMaxProbes}) {
+    std::array<std::unique_ptr<InterleavedTicks>, 4> runs;
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+      runs[i] = std::make_unique<InterleavedTicks>(cases[i].model, cases[i].mesh->vertex_count(), probes, false);
+      runs[i]->run(*cases[i].paths, 0, plan.warmup, plan.warmup);
+    }
+    std::array<std::vector<double>, 3> rounds;
+    const std::size_t never = ~std::size_t{0};
+    for (std::size_t b = 0; b < blocks; ++b) {
+      const std::size_t from = plan.warmup + b * block, to = from + block;
+      std::array<double, 4> p99{};
+      for (std::size_t i = 0; i < cases.size(); ++i) {
+        InterleavedTicks& r = *runs[i];
+        r.run(*cases[i].paths, from, from + untimed, never);
+        const std::size_t before = r.tick_ns.size();
+        r.run(*cases[i].paths, from + untimed, to, 0);
+        std::vector<double> these(r.tick_ns.begin() + static_cast<std::ptrdiff_t>(before), r.tick_ns.end());
+        p99[i] = bench::latency_of(these).p99_us;
+      }
+      for (std::size_t k = 0; k < ratios_of.size(); ++k)
+        if (p99[ratios_of[k].den] > 0) rounds[k].push_back(p99[ratios_of[k].num] / p99[ratios_of[k].den]);
+    }
+    json r = {{"section", "same_phase"}, {"probes", probes}, {"blocks", blocks}, {"block_ticks", block},
+              {"untimed_per_block", untimed}};
+    std::array<Latency, 4> pooled;
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+      InterleavedTicks& t = *runs[i];
+      pooled[i] = bench::latency_of(t.tick_ns);
+      const double n = static_cast<double>(std::max<std::size_t>(1, t.tick_ns.size()));
+      const Latency cross = bench::latency_of(t.tick_cross_ns), ring = bench::latency_of(t.tick_ring_ns),
+                    quiet = bench::latency_of(t.tick_quiet_ns),
+                    quiet_after = bench::latency_of(t.tick_quiet_after_step_ns),
+                    quiet_later = bench::latency_of(t.tick_quiet_later_ns);
+      std::printf("[same phase] %d probe%s, %-16s tick p50 %.3f p99 %.3f p99.9 %.3f us (%zu ticks); with a crossing "
+                  "%.1f%% p99 %.3f, moving a ring fetch on %.1f%% p99 %.3f, quiet %.1f%% p99 %.3f us (right after a "
+                  "step %.3f, a tick later %.3f)\n",
+                  probes, probes == 1 ? "" : "s", cases[i].name.c_str(), pooled[i].p50_us, pooled[i].p99_us,
+                  pooled[i].p999_us, pooled[i].samples, 100.0 * static_cast<double>(cross.samples) / n, cross.p99_us,
+                  100.0 * static_cast<double>(ring.samples) / n, ring.p99_us,
+                  100.0 * static_cast<double>(quiet.samples) / n, quiet.p99_us, quiet_after.p99_us,
+                  quiet_later.p99_us);
+      r[cases[i].name] = latency_json(pooled[i]);
+    }
+    for (std::size_t k = 0; k < ratios_of.size(); ++k) {
+      const Ratio& q = ratios_of[k];
+      const double pooled_ratio = pooled[q.den].p99_us > 0 ? pooled[q.num].p99_us / pooled[q.den].p99_us : 0;
+      std::vector<double>& v = rounds[k];
+      std::sort(v.begin(), v.end());
+      const double median = v.empty() ? 0 : v[v.size() / 2];
+      std::printf("[same phase] %d probe%s, %s: p99 %.2fx <= %.1fx %s; round by round: median %.2fx, %.2f to %.2fx "
+                  "over %zu rounds\n",
+                  probes, probes == 1 ? "" : "s", q.what, pooled_ratio, q.limit, pooled_ratio <= q.limit ? "PASS" : "FAIL",
+                  median, v.empty() ? 0 : v.front(), v.empty() ? 0 : v.back(), v.size());
+      r[q.what] = {{"p99_ratio", pooled_ratio}, {"round_median", median}, {"rounds", v}};
+    }
+    std::fflush(stdout);
+    res.records.push_back(r);
+  }
+}
+
 // ---------------------------------------------------------------------------
 // Everything measured on one mesh.
 void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results& res) {
@@ -500,14 +778,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
 
   // One seeded trajectory of three probes; the 1-probe runs use probe 0's.
   t0 = Clock::now();
-  bench::PathOptions po;
-  po.probes = kMaxProbes;
-  po.ticks = plan.warmup + plan.ticks;
-  po.dt = kTickPeriod;
-  po.speed = kProbeSpeed;
-  po.depth = kProbeDepth;
-  po.seed = opt.seed;
-  const bench::ProbePaths paths = make_probe_paths(*m, cgal, po);
+  const bench::ProbePaths paths = make_probe_paths(*m, cgal, path_options(plan, opt));
   const double t_path = elapsed_ns(t0, Clock::now()) * 1e-9;
   std::printf("[%s] %zu vertices, %zu triangles (%s): mesh %.2f s, our tree %.2f s, CGAL tree %.2f s, paths %.2f s\n",
               mc.name.c_str(), V, m->triangle_count(), mc.source.c_str(), t_mesh, t_tree, t_cgal, t_path);
@@ -534,20 +805,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     return;
   }
 
-  deform::ShapeFunction shape;
-  shape.kind = deform::ShapeKind::Wendland;
-  shape.radius = kShapeRadius;
-  const haptics::ForceParams force_params;
-  // The session model: this mesh and tree, 1 kHz ticks, a deformation step
-  // every kDeformEvery ticks.
-  auto model = std::make_shared<haptics::SessionModel>();
-  model->mesh = m;
-  model->tree = tree_ptr;
-  model->config.rate_hz = 1.0 / kTickPeriod;
-  model->config.deform_rate_hz = 1.0 / kDeformPeriod;
-  model->config.shape = shape;
-  model->config.force = force_params;
-  model->config.velocity_cutoff_hz = 1e4;  // the paths are smooth: velocity by plain finite difference
+  const auto model = bench_model(m, tree_ptr);
   const json base = {{"mesh", mc.name}, {"mesh_source", mc.source}, {"vertices", V},
                      {"triangles", m->triangle_count()}, {"quick", opt.quick}};
 
@@ -555,104 +813,23 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     // ---- Session steps: the haptic tick of every probe (timed: LoopCore::tick,
     // i.e. mapping, input checks, collision, eq. 4) and, every kDeformEvery
     // ticks on this thread, the deformation step (timed for the active-set figure).
-    std::vector<haptics::ProbeSetup> setups(static_cast<std::size_t>(probes));
-    for (auto& su : setups) {
-      su.name = "bench probe";
-      su.spec.position_dof = 3;  // no force output: the model's force, no safety ramp
-      su.safety.max_jump = 1e3;
-    }
-    haptics::Session session(model, deform::MaterialArrays::uniform(V, deform::Material{}), setups);
-    deform::DeformableSurface& surface = session.surface();
-    std::array<haptics::ProbeTickInput, kMaxProbes> inputs{};
-    std::array<haptics::ProbeTickResult, kMaxProbes> results{};
-    // Ticks split by whether a step ran just before them on this thread.
-    std::vector<double> tick_ns, step_ns, tick_after_step_ns, tick_other_ns;
-    // Ticks split by whether a probe's contact triangle changed in them (a
-    // crossing: the walk prepares a new triangle, so the tick's cost grows
-    // with how many triangles a probe crosses per second, that is with the
-    // mesh's density along the path).
-    std::vector<double> tick_cross_ns, tick_stay_ns;
-    // Of those, the ticks where a probe passed a corner of its triangle
-    // (the walk steps at least twice).
-    std::vector<double> tick_corner_ns;
-    // The ticks without a crossing, split by whether a probe's fetch of the
-    // ring round its nearest corner (ProbeMemory::ring_vertex) moved on in
-    // them: a new corner, or one more stage. Their share grows with the
-    // mesh's density along the path, as the crossings' does.
-    std::vector<double> tick_ring_ns, tick_quiet_ns;
-    // Ticks split by the slowest contact path any probe took (walk < proxy < tree).
-    std::array<std::vector<double>, 3> tick_by_path;
-    bool stepped = false;
-    tick_ns.reserve(plan.ticks);
-    step_ns.reserve(plan.ticks);
-    double active_sum = 0;
-    std::size_t contact_ticks = 0, walk_ticks = 0;
-    std::vector<haptics::DeformRequest> requests;  // for the replica figures (3 probes)
-    for (std::size_t k = 0; k < paths.ticks; ++k) {
-      const double t = static_cast<double>(k) * kTickPeriod;
-      for (int p = 0; p < probes; ++p) {
-        inputs[p].sample = haptics::position_sample(paths.at(k, p), k + 1, t);
-      }
-      std::array<Index, kMaxProbes> triangle_before{}, ring_vertex_before{};
-      std::array<int, kMaxProbes> ring_stage_before{};
-      for (int p = 0; p < probes; ++p) {
-        const haptics::ProbeMemory& pm = session.core().state().memory[p];
-        triangle_before[p] = pm.cursor.triangle;
-        ring_vertex_before[p] = pm.ring_vertex;
-        ring_stage_before[p] = pm.ring_stage;
-      }
-      const auto a = Clock::now();
-      const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs.data(), probes),
-                                    std::span<haptics::ProbeTickResult>(results.data(), probes));
-      const auto b = Clock::now();
-      const bool after_step = stepped;
-      stepped = due;
-      if (k >= plan.warmup) {
-        const double ns = elapsed_ns(a, b);
-        tick_ns.push_back(ns);
-        (after_step ? tick_after_step_ns : tick_other_ns).push_back(ns);
-        int slowest = 0;  // 0 walk, 1 proxy, 2 tree
-        for (int p = 0; p < probes; ++p) {
-          const auto path = static_cast<collision::ContactPath>(results[p].path);
-          contact_ticks += results[p].in_contact;
-          walk_ticks += path == collision::ContactPath::Walk;
-          if (path == collision::ContactPath::Tree) {
-            slowest = 2;
-          } else if (path == collision::ContactPath::Proxy) {
-            slowest = std::max(slowest, 1);
-          }
-        }
-        tick_by_path[slowest].push_back(ns);
-        bool crossed = false, cornered = false, ring = false;
-        for (int p = 0; p < probes; ++p) {
-          const haptics::ProbeMemory& pm = session.core().state().memory[p];
-          ring |= pm.ring_vertex != ring_vertex_before[p] || pm.ring_stage != ring_stage_before[p];
-          const Index now = pm.cursor.triangle, before = triangle_before[p];
-          if (now == before) continue;
-          crossed = true;
-          // Past a corner: into a triangle that shares no edge with the last.
-          const mesh::SurfaceMesh& m = surface.mesh();
-          if (before < m.triangle_neighbors.size() && now != kNoIndex) {
-            const auto& across = m.triangle_neighbors[before];
-            cornered |= std::find(across.begin(), across.end(), now) == across.end();
-          }
-        }
-        (crossed ? tick_cross_ns : tick_stay_ns).push_back(ns);
-        if (cornered) tick_corner_ns.push_back(ns);
-        if (!crossed) (ring ? tick_ring_ns : tick_quiet_ns).push_back(ns);
-      }
-      if (due) {
-        if (probes == kMaxProbes) requests.push_back(session.core().request());
-        const auto c = Clock::now();
-        session.deform(session.core().request());
-        const auto d = Clock::now();
-        if (k >= plan.warmup) {
-          step_ns.push_back(elapsed_ns(c, d));
-          active_sum += static_cast<double>(surface.active_count());
-        }
-      }
-      if (k % kDirtyEvery == 0) (void)surface.take_dirty_ranges();
-    }
+    InterleavedTicks run(model, V, probes, probes == kMaxProbes);
+    for (auto& v : {&run.tick_ns, &run.step_ns}) v->reserve(plan.ticks);
+    run.run(paths, 0, paths.ticks, plan.warmup);
+    deform::DeformableSurface& surface = run.session.surface();
+    auto& tick_ns = run.tick_ns;
+    auto& step_ns = run.step_ns;
+    auto& tick_after_step_ns = run.tick_after_step_ns;
+    auto& tick_other_ns = run.tick_other_ns;
+    auto& tick_cross_ns = run.tick_cross_ns;
+    auto& tick_stay_ns = run.tick_stay_ns;
+    auto& tick_corner_ns = run.tick_corner_ns;
+    auto& tick_ring_ns = run.tick_ring_ns;
+    auto& tick_quiet_ns = run.tick_quiet_ns;
+    auto& tick_by_path = run.tick_by_path;
+    const double active_sum = run.active_sum;
+    const std::size_t contact_ticks = run.contact_ticks, walk_ticks = run.walk_ticks;
+    const auto& requests = run.requests;
     const bench::Latency after_step = bench::latency_of(tick_after_step_ns);
     const bench::Latency other = bench::latency_of(tick_other_ns);
     const bench::Latency crossing = bench::latency_of(tick_cross_ns);
@@ -1410,6 +1587,10 @@ int main(int argc, char** argv) {
 
   // Measure each mesh in turn (one mesh in memory at a time).
   Results results;
+  if (opt.same_phase_blocks > 0) {
+    cases.clear();
+    run_same_phase(plan, opt, results);
+  }
   for (const auto& c : cases) {
     try {
       run_mesh(c, plan, opt, results);
@@ -1418,20 +1599,22 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (opt.query_loop > 0) {
+  if (opt.same_phase_blocks > 0) {
+    // only its own section
+  } else if (opt.query_loop > 0) {
     std::printf("query loop: collect in 'palpa::collision::track_contact*' (callgrind --toggle-collect) and divide "
                 "by queries x passes for instructions per query; equal answer hashes mean equal bits\n");
   } else {
     if (!opt.tissue_map_only && !opt.hover_only) print_tables(results, clock, opt);
   }
-  if (!opt.hover_only && opt.query_loop == 0) {
+  if (!opt.hover_only && opt.query_loop == 0 && opt.same_phase_blocks == 0) {
     try {
       bench::run_tissue_map_bench(1'000'000, opt.quick ? 3 : 5, results.records);
     } catch (const std::exception& e) {
       std::printf("[tissue map] skipped: %s\n", e.what());
     }
   }
-  if (!opt.tissue_map_only && opt.query_loop == 0) {
+  if (!opt.tissue_map_only && opt.query_loop == 0 && opt.same_phase_blocks == 0) {
     try {
       bench::run_hover_bench(1'000'000, opt.quick ? 10000 : 30000, 2, results.records);
     } catch (const std::exception& e) {
