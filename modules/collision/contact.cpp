@@ -1140,7 +1140,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
   ans.surface = slid;
   const mesh::Triangle& tri = mesh.triangles[slid.triangle];
   const Vec3& b = slid.barycentric;
-  ans.nearest_vertex = b[0] >= b[1] && b[0] >= b[2] ? tri[0] : (b[1] >= b[2] ? tri[1] : tri[2]);
+  ans.nearest_vertex = tri[heaviest_corner(b)];
   ans.path = ContactPath::Proxy;
   cursor.triangle = slid.triangle;
   cursor.barycentric = slid.barycentric;

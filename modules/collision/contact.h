@@ -23,6 +23,13 @@ struct SurfacePoint {
   bool inside = false;              ///< barycentric weights all within the triangle (else clamped to its edge)
 };
 
+/// The corner (0, 1 or 2) of a triangle with the largest of the
+/// barycentric weights `b` (dimensionless; the first of equal ones): the
+/// corner a point at `b` is nearest.
+inline int heaviest_corner(const Vec3& b) noexcept {
+  return b[0] >= b[1] && b[0] >= b[2] ? 0 : (b[1] >= b[2] ? 1 : 2);
+}
+
 /// Finds the surface point for `probe` among the triangles around
 /// `nearest_vertex` (its one-ring, widened to the neighbours' rings when no
 /// triangle contains the projection). No allocation.

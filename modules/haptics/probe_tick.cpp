@@ -128,10 +128,6 @@ void tick_one(const deform::DeformableSurface& surface, const collision::VertexT
   out.contact.shape = shape;
 }
 
-// The corner of a triangle with the largest of the weights b (the first of
-// equal ones): the corner a probe at b is nearest.
-int heaviest_corner(const Vec3& b) { return b[0] >= b[1] && b[0] >= b[2] ? 0 : (b[1] >= b[2] ? 1 : 2); }
-
 // Asks for what the walk reads of vertex v when it steps into a triangle
 // with v as its far corner, and the tick after it: the position (the walk
 // prepares the triangle from it) and the surface data. The contact
@@ -151,7 +147,7 @@ void fetch_step_vertex(const deform::DeformableSurface& surface, const mesh::Sur
 // (a tick earlier), so no stage waits on memory itself. No effect on results.
 void fetch_ring_ahead(const deform::DeformableSurface& surface, const mesh::SurfaceMesh& mesh, ProbeMemory& memory) {
   const Vec3& b = memory.cursor.barycentric;
-  const Index v = memory.corners[heaviest_corner(b)];
+  const Index v = memory.corners[collision::heaviest_corner(b)];
   if (v == memory.ring_vertex && memory.ring_stage >= 3) return;  // fetched: most ticks
   const mesh::Csr& triangles_of = mesh.vertex_triangles;
   const mesh::Csr& ring_of = mesh.vertex_neighbors;
@@ -196,7 +192,7 @@ bool corner_rehearsal_point(const mesh::SurfaceMesh& mesh, const ProbeMemory& m,
   if (tri[0] >= mesh.vertex_count() || tri[1] >= mesh.vertex_count() || tri[2] >= mesh.vertex_count() ||
       !b.allFinite() || !m.cursor.probe.allFinite())
     return false;
-  const int k = heaviest_corner(b);
+  const int k = collision::heaviest_corner(b);
   const Vec3 contact = b[0] * mesh.positions[tri[0]] + b[1] * mesh.positions[tri[1]] + b[2] * mesh.positions[tri[2]];
   const Vec3& corner = mesh.positions[tri[k]];
   point = corner + 0.25 * (corner - contact) + (m.cursor.probe - contact);

@@ -34,6 +34,28 @@ void expect_vec_near(const Vec3& got, const Vec3& want, double tol, const char* 
   EXPECT_LE((got - want).norm(), tol) << what << ": got " << got.transpose() << ", want " << want.transpose();
 }
 
+// Every weight pattern on a grid of thirds, ties included: the corner
+// returned has a weight no other corner exceeds, and no corner before it
+// has as much (the first of equal ones).
+TEST(Contact, TheHeaviestCornerHasTheLargestWeightAndIsTheFirstOfEqualOnes) {
+  const std::array<double, 5> w = {-1.0 / 3, 0.0, 1.0 / 3, 2.0 / 3, 1.0};
+  int checked = 0;
+  for (double a : w)
+    for (double b : w)
+      for (double c : w) {
+        const Vec3 bary(a, b, c);
+        const int k = heaviest_corner(bary);
+        ASSERT_GE(k, 0);
+        ASSERT_LE(k, 2);
+        for (int j = 0; j < 3; ++j) {
+          EXPECT_GE(bary[k], bary[j]) << a << ' ' << b << ' ' << c;
+          if (j < k) EXPECT_LT(bary[j], bary[k]) << a << ' ' << b << ' ' << c;
+        }
+        ++checked;
+      }
+  EXPECT_EQ(checked, 125);
+}
+
 TEST(Contact, FlatTriangleIsOrthogonalProjection) {
   // Constant normal +z: the point is the probe's foot, offset its height.
   const auto m = one_triangle(Vec3::UnitZ(), Vec3::UnitZ(), Vec3::UnitZ());
