@@ -6,6 +6,7 @@
 // another vessel), every input a pure function of the tick so a test knows
 // what any tick must hold.
 
+#include "common/test_support.h"
 #include "haptics/loop_replay.h"
 #include "haptics/session.h"
 #include "mesh/generate.h"
@@ -17,28 +18,17 @@
 #include <filesystem>
 #include <memory>
 #include <string>
-#include <unistd.h>
 
 namespace palpa::record::test {
 
-/// A folder of this test process, removed when the process exits normally
-/// (a forked child that is killed or calls _exit leaves it to its parent).
+/// One folder of this test process for all the record tests' files, made
+/// fresh on the first call and kept across calls (palpa::test::temp_dir,
+/// which removes it when the process exits normally; a forked child that is
+/// killed or calls _exit leaves it to its parent).
 inline std::filesystem::path temp_dir() {
-  struct Dir {
-    std::filesystem::path path;
-    pid_t owner;
-    Dir() : path(std::filesystem::temp_directory_path() / ("palpa-record-test-" + std::to_string(::getpid()))),
-            owner(::getpid()) {
-      std::filesystem::create_directories(path);
-    }
-    ~Dir() {
-      std::error_code ec;
-      if (::getpid() == owner) std::filesystem::remove_all(path, ec);
-    }
-  };
-  static Dir dir;
-  std::filesystem::create_directories(dir.path);
-  return dir.path;
+  static const std::filesystem::path dir = palpa::test::temp_dir("record");
+  std::filesystem::create_directories(dir);
+  return dir;
 }
 
 inline haptics::Triple probe_position(std::size_t slot, std::uint64_t tick) {
