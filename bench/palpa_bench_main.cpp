@@ -1545,6 +1545,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   const Plan plan = make_plan(opt);
+  if (opt.same_phase_blocks > 0 && static_cast<std::size_t>(opt.same_phase_blocks) > plan.ticks) {
+    std::fprintf(stderr, "palpa-bench: --same-phase: %d blocks is more than the %zu timed ticks (--ticks)\n",
+                 opt.same_phase_blocks, plan.ticks);
+    return 2;
+  }
   const auto start = Clock::now();
 
   // Open the JSON file first, so an unwritable path fails before minutes of measuring.
