@@ -48,6 +48,7 @@
 
 #include <sched.h>
 #include <signal.h>
+#include <spawn.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -185,22 +186,36 @@ std::string write_trajectory(const std::filesystem::path& file, const Vec3& poin
   return file.string();
 }
 
+// The second core's load: this program again (/proc/self/exe), spinning on
+// `cpu` until it ends or its parent `parent` does (main, "--spin-load").
+[[noreturn]] void spin_load(int cpu, pid_t parent) {
+  prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (getppid() != parent) _exit(0);  // the parent ended before the line above
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  sched_setaffinity(0, sizeof set, &set);
+  volatile std::uint64_t x = 0;
+  for (;;) x = x * 6364136223846793005ull + 1442695040888963407ull;
+}
+
 // Another process spinning on a CPU that is not the haptic thread's (the
 // second core on a 2-CPU machine). It dies with this process, however that
 // ends (a timeout's SIGTERM, Ctrl-C), instead of spinning on as an orphan.
+// Started by posix_spawn, not fork: a fork would make every page this
+// process has copy-on-write, so that the loop's threads paid a page fault
+// (20 us and more on the haptic thread) at their first write to each page
+// after it (docs/PERFORMANCE.md, round 33). Exits when it cannot start.
 pid_t start_load() {
   const int haptic = haptics::reserved_haptic_cpu();
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid == 0) {
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (getppid() != parent) _exit(0);  // the parent ended before the line above
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    CPU_SET(haptic == 0 ? 1 : 0, &set);
-    sched_setaffinity(0, sizeof set, &set);
-    volatile std::uint64_t x = 0;
-    for (;;) x = x * 6364136223846793005ull + 1442695040888963407ull;
+  std::string name = "palpa-loop-bench", flag = "--spin-load", cpu = std::to_string(haptic == 0 ? 1 : 0),
+              parent = std::to_string(getpid());
+  char* args[] = {name.data(), flag.data(), cpu.data(), parent.data(), nullptr};
+  pid_t pid = -1;
+  if (const int rc = posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, args, environ); rc != 0) {
+    std::fprintf(stderr, "palpa-loop-bench: cannot start the load on the second core (posix_spawn of /proc/self/exe: %s)\n",
+                 std::strerror(rc));
+    std::exit(1);
   }
   return pid;
 }
@@ -465,6 +480,8 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The load process start_load starts: this program with "--spin-load CPU PARENT".
+  if (argc == 4 && std::strcmp(argv[1], "--spin-load") == 0) spin_load(std::atoi(argv[2]), std::atoi(argv[3]));
   // Mesa's software renderer frees and allocates its buffers every frame:
   // keep the freed heap in the process (render/heap.h).
   render::keep_freed_heap();
