@@ -446,11 +446,13 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   std::printf("  missed deadlines %llu (%.4f %%), skipped periods %llu, watchdog trips %llu\n",
               static_cast<unsigned long long>(s.deadline_misses), pct, static_cast<unsigned long long>(s.skipped_periods),
               static_cast<unsigned long long>(s.watchdog_trips));
-  if (c.spin_us > 0 && c.warm_before_tick)
-    std::printf("  warm-ups before ticks %llu (%.2f per tick, over the %llu ticks of the whole run)\n",
-                static_cast<unsigned long long>(loop.warm_ups()),
-                loop.ticks() ? static_cast<double>(loop.warm_ups()) / static_cast<double>(loop.ticks()) : 0.0,
-                static_cast<unsigned long long>(loop.ticks()));
+  if (c.spin_us > 0 && c.warm_before_tick) {
+    const double ticks = static_cast<double>(std::max<std::uint64_t>(1, loop.ticks()));
+    std::printf("  warm-ups before ticks %llu (%.2f per tick, over the %llu ticks of the whole run); ticks touched "
+                "10 us before: %.2f%%\n",
+                static_cast<unsigned long long>(loop.warm_ups()), static_cast<double>(loop.warm_ups()) / ticks,
+                static_cast<unsigned long long>(loop.ticks()), 100.0 * static_cast<double>(loop.touches()) / ticks);
+  }
   print_timing("tick duration", s.tick_duration);
   print_timing("period jitter", s.period_jitter);
   print_timing("start latency", s.start_latency);

@@ -207,6 +207,10 @@ ThreadedFigures measure_threaded(const std::shared_ptr<const haptics::SessionMod
       held = haptics::warm_during_spin(
           clock, next, spin_ns, [&] { return current.load(); }, [&] { return warm_up(false); },
           [&] { return pacing.hold ? warm_up(true) : -1; }, [] { return false; });
+      // The held replica's warm-up once more, 10 us before the tick, as
+      // HapticLoop's touch (its devices' reads and view have no twin here).
+      if (held >= 0)
+        haptics::touch_before_tick(clock, next, spin_ns, [&] { core.warm_caches(*replicas[held]); }, [] { return false; });
     }
     clock.sleep_until(next, spin_ns);
     const double t = static_cast<double>(k) * period;

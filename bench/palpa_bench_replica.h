@@ -34,7 +34,9 @@ ReplicaStepFigures measure_replica_steps(const haptics::SessionModel& model,
 /// replicas, as HapticLoop did before issue 8). This thread waits for each
 /// tick as the haptic thread of the workbench does: it sleeps, then spins
 /// the last `spin_us` (us), and with `warm` runs the warm-up of
-/// LoopConfig::warm_before_tick during the spin (haptics::warm_during_spin).
+/// LoopConfig::warm_before_tick during the spin (haptics::warm_during_spin),
+/// and the held replica's warm-up once more just before the tick
+/// (haptics::touch_before_tick).
 /// With `place`, the threads run where the workbench runs them: this thread
 /// on one CPU of its own (chosen as haptics::reserve_haptic_cpu chooses it),
 /// at SCHED_FIFO where the process may, and the deformation thread on the

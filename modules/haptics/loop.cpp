@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstddef>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -699,6 +700,23 @@ void HapticLoop::haptic_main() {
           clock, next, spin, [this] { return current_.load(std::memory_order_acquire); },
           [&] { return warm_up(false); }, [&] { return warm_up(true); },
           [this] { return stop_.load(std::memory_order_relaxed); });
+      // Then, 10 us before the tick, what the tick reads once more: the
+      // held replica's warm-up again, every device (read() copies the latest
+      // sample, so an extra read changes nothing; the tick reads again) and
+      // the view the tick writes. The held warm-up may be 50 us old by the
+      // tick, and a virtual machine's host takes lines from a spinning CPU.
+      auto touch = [&] {
+        if (held >= 0) core_->warm_caches(*replicas_[held]);
+        const std::size_t n = core_->probe_count();
+        for (std::size_t i = 0; i < n; ++i)
+          if (devices_[i] != nullptr) inputs[i].read_ok = devices_[i]->read(inputs[i].sample);
+        (void)commands_->size();
+        const char* view = reinterpret_cast<const char*>(&view_->write_buffer());
+        const std::size_t bytes = offsetof(LoopView, probes) + n * sizeof(ProbeTickResult);
+        for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(view + b, 1, 3);
+        touches_.fetch_add(1, std::memory_order_release);
+      };
+      touch_before_tick(clock, next, spin, touch, [this] { return stop_.load(std::memory_order_relaxed); });
       if (stop_.load(std::memory_order_relaxed)) {
         in_use_.store(-1, std::memory_order_seq_cst);
         break;

@@ -245,6 +245,10 @@ class HapticLoop {
   std::uint64_t ticks() const { return ticks_.load(std::memory_order_acquire); }
   /// Warm-ups run before ticks so far (LoopConfig::warm_before_tick).
   std::uint64_t warm_ups() const { return warm_ups_.load(std::memory_order_acquire); }
+  /// Ticks whose data were touched once more just before them
+  /// (haptics::touch_before_tick: the held replica's warm-up again, the
+  /// devices' reads, the view) so far.
+  std::uint64_t touches() const { return touches_.load(std::memory_order_acquire); }
   /// True when no deformation request waits (every requested step is made).
   bool deform_idle() const;
 
@@ -365,7 +369,7 @@ class HapticLoop {
 
   // Statistics (written by the threads, read by anyone).
   DurationHistogram tick_hist_, jitter_hist_, latency_hist_, deform_hist_;
-  std::atomic<std::uint64_t> ticks_{0}, warm_ups_{0}, misses_{0}, skipped_{0}, watchdog_trips_{0}, model_late_{0},
+  std::atomic<std::uint64_t> ticks_{0}, warm_ups_{0}, touches_{0}, misses_{0}, skipped_{0}, watchdog_trips_{0}, model_late_{0},
       record_drops_{0}, deform_steps_{0}, deform_overruns_{0}, deform_drops_{0};
   std::atomic<double> start_time_{0}, stop_time_{0}, last_miss_time_{-1e9}, deform_start_time_{0};
   std::atomic<bool> realtime_{false};

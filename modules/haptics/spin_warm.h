@@ -66,4 +66,34 @@ int warm_during_spin(Clock& clock, std::int64_t next_ns, std::int64_t spin_ns, P
   return hold();
 }
 
+/// How long before the tick the last touch of its data starts, ns
+/// (touch_before_tick).
+inline constexpr std::int64_t kTouchLeadNs = 10'000;
+/// The latest a touch may start, ns before the tick: a touch (a warm-up and
+/// the devices' reads, a few microseconds) that cannot start earlier would
+/// delay the tick, so it is left out.
+inline constexpr std::int64_t kTouchLatestNs = 5'000;
+
+/// Touches the tick's data once more just before the tick at `next_ns`:
+/// waits until next_ns - kTouchLeadNs and calls touch() there, unless stop()
+/// or fewer than kTouchLatestNs are left before the tick. Returns whether
+/// touch() ran. Nothing runs with a spin `spin_ns` shorter than kTouchLeadNs
+/// (the thread would sleep through it).
+///
+/// Why: on a virtual machine a spinning CPU still loses its caches, more the
+/// longer it waits (the host runs on it). The held warm-up of
+/// warm_during_spin starts up to 50 us before the tick, and in the running
+/// loop the tick's p99 was twice its cost right after a warm-up; the
+/// devices' reads, which no warm-up ran, took up to 3 us of it
+/// (docs/PERFORMANCE.md, round 33). `clock` as for warm_during_spin. No
+/// allocation.
+template <class Clock, class Touch, class Stop>
+bool touch_before_tick(Clock& clock, std::int64_t next_ns, std::int64_t spin_ns, Touch&& touch, Stop&& stop) {
+  if (spin_ns < kTouchLeadNs) return false;
+  clock.sleep_until(next_ns - kTouchLeadNs, kWarmPollNs);
+  if (stop() || clock.now_ns() > next_ns - kTouchLatestNs) return false;
+  touch();
+  return true;
+}
+
 }  // namespace palpa::haptics

@@ -258,5 +258,71 @@ TEST(SpinWarm, AWarmUpThatRunsPastTheDeadlineIsTheLast) {
   EXPECT_EQ(held, -1);
 }
 
+// The touch just before the tick (haptics::touch_before_tick), on the same
+// hand-moved clock: at kTouchLeadNs before the tick, unless the thread gets
+// there later than kTouchLatestNs before it, or is stopping, or its spin is
+// shorter than the lead.
+struct Touched {
+  int touches = 0;
+  std::int64_t at = -1;  // when the touch ran, ns
+  bool returned = false;
+  std::int64_t end = 0;  // the clock when touch_before_tick returned, ns
+};
+
+Touched run_touch(std::int64_t next, std::int64_t spin, std::int64_t start, bool stopping = false) {
+  StepClock clock;
+  clock.now = start;
+  Touched r;
+  r.returned = haptics::touch_before_tick(
+      clock, next, spin,
+      [&] {
+        ++r.touches;
+        r.at = clock.now;
+        clock.now += 3'000;  // a touch of 3 us
+      },
+      [&] { return stopping; });
+  r.end = clock.now;
+  return r;
+}
+
+TEST(SpinWarm, TheTouchRunsTenMicrosecondsBeforeTheTick) {
+  using haptics::kTouchLatestNs;
+  using haptics::kTouchLeadNs;
+  EXPECT_EQ(kTouchLeadNs, 10'000);
+  EXPECT_EQ(kTouchLatestNs, 5'000);
+  // After the held warm-up (50 us before the tick): it waits for the lead.
+  const Touched r = run_touch(kNext, kSpin, kDeadline + 3'000);
+  EXPECT_TRUE(r.returned);
+  EXPECT_EQ(r.touches, 1);
+  EXPECT_EQ(r.at, kNext - kTouchLeadNs);
+  EXPECT_LT(r.end, kNext);
+  // Got there late, but with kTouchLatestNs or more left: at once.
+  const Touched late = run_touch(kNext, kSpin, kNext - 7'000);
+  EXPECT_EQ(late.at, kNext - 7'000);
+  const Touched latest = run_touch(kNext, kSpin, kNext - kTouchLatestNs);
+  EXPECT_EQ(latest.at, kNext - kTouchLatestNs);
+  EXPECT_TRUE(latest.returned);
+}
+
+TEST(SpinWarm, NoTouchTooCloseToTheTickWhenStoppingOrWithAShortSpin) {
+  // Less than kTouchLatestNs left: left out, and the clock not moved.
+  const Touched r = run_touch(kNext, kSpin, kNext - haptics::kTouchLatestNs + 1);
+  EXPECT_FALSE(r.returned);
+  EXPECT_EQ(r.touches, 0);
+  EXPECT_EQ(r.end, kNext - haptics::kTouchLatestNs + 1);
+  // Stopping: no touch (after the wait for the lead).
+  const Touched s = run_touch(kNext, kSpin, kDeadline, true);
+  EXPECT_FALSE(s.returned);
+  EXPECT_EQ(s.touches, 0);
+  // A spin shorter than the lead: no wait, no touch (the thread would have
+  // slept through the lead).
+  const Touched shortspin = run_touch(kNext, haptics::kTouchLeadNs - 1, kNext - 50'000);
+  EXPECT_FALSE(shortspin.returned);
+  EXPECT_EQ(shortspin.touches, 0);
+  EXPECT_EQ(shortspin.end, kNext - 50'000);
+  // A spin of exactly the lead: touched.
+  EXPECT_EQ(run_touch(kNext, haptics::kTouchLeadNs, kNext - 50'000).touches, 1);
+}
+
 }  // namespace
 }  // namespace palpa
