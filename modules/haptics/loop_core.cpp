@@ -509,8 +509,21 @@ void LoopCore::warm_caches(const deform::DeformableSurface& surface, bool rehear
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
               std::span<ProbeMemory>(warm_memory_.data(), dense), std::span<ProbeOutput>(warm_outputs_.data(), dense),
               state_.force, state_.shape, last_tissue_ ? &tissue_tick_ : nullptr);
-  if (!rehearse_corners) return;
   const mesh::SurfaceMesh& mesh = surface.mesh();
+  // A probe in contact leaves it on a tick that asks the tree: its local
+  // search from the cursor's leaf, then its clearance bound from the root
+  // (track_contact, past the proxy). Asked here too, at the probe's place,
+  // on the copy, whose state is put back after.
+  for (std::size_t d = 0; d < dense; ++d) {
+    ProbeMemory& m = warm_memory_[d];
+    if (!m.in_contact) continue;
+    const Vec3& at = probe_inputs_[d].position;
+    const collision::ContactCursorState kept = m.cursor;
+    (void)collision::query_contact(mesh, tree_, at, m.cursor, false);
+    (void)tree_.clearance(at, collision::kMaxClearance);
+    static_cast<collision::ContactCursorState&>(m.cursor) = kept;
+  }
+  if (!rehearse_corners) return;
   for (std::size_t d = 0; d < dense; ++d) {
     Vec3 past = Vec3::Zero();
     if (corner_rehearsal_point(mesh, warm_memory_[d], past))
