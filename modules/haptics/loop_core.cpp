@@ -510,15 +510,23 @@ void LoopCore::warm_caches(const deform::DeformableSurface& surface, bool rehear
               std::span<ProbeMemory>(warm_memory_.data(), dense), std::span<ProbeOutput>(warm_outputs_.data(), dense),
               state_.force, state_.shape, last_tissue_ ? &tissue_tick_ : nullptr);
   const mesh::SurfaceMesh& mesh = surface.mesh();
-  // A probe in contact leaves it on a tick that asks the tree: its local
-  // search from the cursor's leaf, then its clearance bound from the root
-  // (track_contact, past the proxy). Asked here too, at the probe's place,
-  // on the copy, whose state is put back after.
+  // A probe in contact leaves it on a tick that asks the tree from its
+  // root: the nearest vertex, then the clearance bound (track_contact, past
+  // the proxy). Asked here too, at the probe's place, on the copy, whose
+  // state is put back after; only for a probe that may leave within a few
+  // ticks (its depth below the undeformed surface within kLeaveTicks ticks
+  // of its speed, or kLeaveMargin), as those questions cost a few
+  // microseconds a probe.
+  constexpr double kLeaveTicks = 4;
+  constexpr double kLeaveMargin = 1e-4;  // m
   for (std::size_t d = 0; d < dense; ++d) {
     ProbeMemory& m = warm_memory_[d];
     if (!m.in_contact) continue;
+    const double reach = kLeaveTicks * probe_inputs_[d].velocity.norm() * config_.period() + kLeaveMargin;
+    if (!(warm_outputs_[d].height.depth <= reach)) continue;
     const Vec3& at = probe_inputs_[d].position;
     const collision::ContactCursorState kept = m.cursor;
+    m.cursor.tree = collision::SearchCursor{};
     (void)collision::query_contact(mesh, tree_, at, m.cursor, false);
     (void)tree_.clearance(at, collision::kMaxClearance);
     static_cast<collision::ContactCursorState&>(m.cursor) = kept;

@@ -322,11 +322,12 @@ class LoopCore {
   /// CPU. A probe the last tick found hovering clear of the surface
   /// (collision::ContactPath::Clear, no search) is asked of the tree here,
   /// so that the tree's path is in the cache on the tick the probe leaves
-  /// its clearance. At each probe in contact the tree is asked, on its copy,
-  /// what the tick on which the probe leaves contact asks: the local search
-  /// from the cursor's leaf and the clearance bound from the root (without
-  /// it, those ticks took 7 to 18 us in the running loop against 1 to 3;
-  /// docs/PERFORMANCE.md, round 33). With `rehearse_corners` (the caller has just run a
+  /// its clearance. At each probe in contact that may leave it within a few
+  /// ticks (its depth within 4 ticks of its speed, or 0.1 mm), the tree is
+  /// asked, on its copy, what the tick on which the probe leaves contact
+  /// asks: the nearest vertex and the clearance bound, from the root
+  /// (without it, those ticks took 7 to 18 us in the running loop, against
+  /// 1 to 3 for the others; docs/PERFORMANCE.md, round 33). With `rehearse_corners` (the caller has just run a
   /// step on this thread), each probe in contact is then queried once more
   /// on its copy, past the corner it is nearest (corner_rehearsal_point),
   /// so that a crossing round that corner finds its triangles and the walk's
