@@ -1014,6 +1014,12 @@ SurfacePoint slide_surface_point(const mesh::SurfaceMesh& mesh, Index triangle, 
   return sp;
 }
 
+ContactAnswer query_contact_from_root(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
+                                      ContactCursor& cursor) {
+  cursor.tree = SearchCursor{};
+  return query_contact(mesh, tree, probe, cursor, false);
+}
+
 ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact) {
   // One answer, returned from every path (so that it is built in place).
@@ -1128,14 +1134,7 @@ ContactAnswer track_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tre
     // Out of contact query_contact walks no triangle, so only the cursor's
     // state is kept aside (not its prepared triangles, 8 KB).
     const ContactCursorState kept = cursor;
-    // From the tree's root, not from the cursor's leaf: that is where the
-    // last tree answer was, which a probe that slid in contact may have left
-    // far behind, and a local search from a far leaf climbs high and
-    // searches wide (about 8 us on the 1M sphere). The root's path is the
-    // one the clearance below takes too. The same nearest vertex (ties
-    // aside, as VertexTree::nearest_local).
-    cursor.tree = SearchCursor{};
-    const ContactAnswer fresh = query_contact(mesh, tree, probe, cursor, false);
+    const ContactAnswer fresh = query_contact_from_root(mesh, tree, probe, cursor);
     if (fresh.surface.triangle != kNoIndex && fresh.surface.offset < 0) {
       ans = fresh;
       return ans;

@@ -304,6 +304,18 @@ struct ContactAnswer {
 ContactAnswer query_contact(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
                             ContactCursor& cursor, bool in_contact);
 
+/// query_contact out of contact with the tree's search from its root, not
+/// from the cursor's leaf: what track_contact asks where a probe comes out
+/// above its proxy (a probe leaving contact). The leaf is where the last
+/// tree answer was, which a probe that slid in contact may have left far
+/// behind; a local search from a far leaf climbs high and searches wide
+/// (about 8 us on a 1M-vertex sphere), and the root's path is the one the
+/// clearance bound takes too. The same nearest vertex as query_contact
+/// (ties aside, as VertexTree::nearest_local). Updates the cursor. No
+/// allocation.
+ContactAnswer query_contact_from_root(const mesh::SurfaceMesh& mesh, const VertexTree& tree, const Vec3& probe,
+                                      ContactCursor& cursor);
+
 /// Largest clearance (m) a tree answer above the surface asks of the tree
 /// (ContactCursor::clearance): the bound's search stops there, and a probe
 /// farther away is asked again after moving this far.

@@ -526,8 +526,7 @@ void LoopCore::warm_caches(const deform::DeformableSurface& surface, bool rehear
     if (!(warm_outputs_[d].height.depth <= reach)) continue;
     const Vec3& at = probe_inputs_[d].position;
     const collision::ContactCursorState kept = m.cursor;
-    m.cursor.tree = collision::SearchCursor{};
-    (void)collision::query_contact(mesh, tree_, at, m.cursor, false);
+    (void)collision::query_contact_from_root(mesh, tree_, at, m.cursor);
     (void)tree_.clearance(at, collision::kMaxClearance);
     static_cast<collision::ContactCursorState&>(m.cursor) = kept;
   }
