@@ -49,7 +49,9 @@ TEST(Contact, TheHeaviestCornerHasTheLargestWeightAndIsTheFirstOfEqualOnes) {
         ASSERT_LE(k, 2);
         for (int j = 0; j < 3; ++j) {
           EXPECT_GE(bary[k], bary[j]) << a << ' ' << b << ' ' << c;
-          if (j < k) EXPECT_LT(bary[j], bary[k]) << a << ' ' << b << ' ' << c;
+          if (j < k) {
+            EXPECT_LT(bary[j], bary[k]) << a << ' ' << b << ' ' << c;
+          }
         }
         ++checked;
       }
@@ -238,6 +240,41 @@ TEST(Contact, SphereContactPointIsRadial) {
     EXPECT_NEAR(sp.normal.norm(), 1.0, 1e-12);
     // The point lies on its triangle and the probe on the normal line through it.
     EXPECT_LE((probe - sp.point - sp.offset * sp.normal).norm(), 1e-12);
+  }
+}
+
+// A probe leaving contact (track_contact) asks the tree from its root,
+// whatever leaf its cursor holds: the nearest vertex is the brute-force one,
+// as query_contact's from that leaf, and the cursor ends on the leaf of the
+// answer (a local search from it at the same point starts there).
+TEST(Contact, TheQueryFromTheRootFindsTheNearestVertexFromAFarLeaf) {
+  const double radius = 0.05;
+  const auto m = mesh::make_sphere(10000, radius);
+  const VertexTree tree(m);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0.95, 1.05);
+  for (int i = 0; i < 200; ++i) {
+    const Vec3 dir = Vec3(g(rng), g(rng), g(rng)).normalized();
+    const Vec3 probe = dir * radius * u(rng);
+    // A cursor whose leaf is on the far side of the sphere.
+    ContactCursor far;
+    (void)query_contact(m, tree, -probe, far, false);
+    ContactCursor from_leaf = far, from_root = far;
+    const ContactAnswer a = query_contact(m, tree, probe, from_leaf, false);
+    const ContactAnswer b = query_contact_from_root(m, tree, probe, from_root);
+    Index brute = kNoIndex;
+    double best = std::numeric_limits<double>::infinity();
+    for (Index v = 0; v < m.vertex_count(); ++v)
+      if (const double d = (m.positions[v] - probe).squaredNorm(); d < best) {
+        best = d;
+        brute = v;
+      }
+    EXPECT_EQ(b.nearest_vertex, brute) << "probe " << probe.transpose();
+    EXPECT_EQ(b.nearest_vertex, a.nearest_vertex) << "probe " << probe.transpose();
+    EXPECT_EQ(b.path, ContactPath::Tree);
+    EXPECT_EQ(b.surface.triangle, a.surface.triangle);
+    EXPECT_EQ(from_root.tree.leaf, from_leaf.tree.leaf);
   }
 }
 
