@@ -40,6 +40,7 @@
 #include "devices/loader.h"
 #include "haptics/cpu_plan.h"
 #include "haptics/loop.h"
+#include "haptics/spin_warm.h"
 #include "mesh/generate.h"
 #include "mesh/spatial_order.h"
 #include "render/heap.h"
@@ -58,6 +59,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -65,6 +67,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -188,13 +191,18 @@ std::string write_trajectory(const std::filesystem::path& file, const Vec3& poin
 
 // The second core's load: this program again (/proc/self/exe), spinning on
 // `cpu` until it ends or its parent `parent` does (main, "--spin-load").
+// A CPU it cannot run on: says so and exits 1.
 [[noreturn]] void spin_load(int cpu, pid_t parent) {
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   if (getppid() != parent) _exit(0);  // the parent ended before the line above
   cpu_set_t set;
   CPU_ZERO(&set);
   CPU_SET(cpu, &set);
-  sched_setaffinity(0, sizeof set, &set);
+  if (sched_setaffinity(0, sizeof set, &set) != 0) {
+    std::fprintf(stderr, "palpa-loop-bench --spin-load: cannot run on CPU %d (sched_setaffinity: %s)\n", cpu,
+                 std::strerror(errno));
+    _exit(1);
+  }
   volatile std::uint64_t x = 0;
   for (;;) x = x * 6364136223846793005ull + 1442695040888963407ull;
 }
@@ -449,9 +457,10 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
   if (c.spin_us > 0 && c.warm_before_tick) {
     const double ticks = static_cast<double>(std::max<std::uint64_t>(1, loop.ticks()));
     std::printf("  warm-ups before ticks %llu (%.2f per tick, over the %llu ticks of the whole run); ticks touched "
-                "10 us before: %.2f%%\n",
+                "%.0f us before: %.2f%%\n",
                 static_cast<unsigned long long>(loop.warm_ups()), static_cast<double>(loop.warm_ups()) / ticks,
-                static_cast<unsigned long long>(loop.ticks()), 100.0 * static_cast<double>(loop.touches()) / ticks);
+                static_cast<unsigned long long>(loop.ticks()), static_cast<double>(haptics::kTouchLeadNs) * 1e-3,
+                100.0 * static_cast<double>(loop.touches()) / ticks);
   }
   print_timing("tick duration", s.tick_duration);
   print_timing("period jitter", s.period_jitter);
@@ -483,7 +492,15 @@ void run(const Scene& scene, const Options& o, double rate, bool load) {
 
 int main(int argc, char** argv) {
   // The load process start_load starts: this program with "--spin-load CPU PARENT".
-  if (argc == 4 && std::strcmp(argv[1], "--spin-load") == 0) spin_load(std::atoi(argv[2]), std::atoi(argv[3]));
+  if (argc == 4 && std::strcmp(argv[1], "--spin-load") == 0) {
+    // Whole numbers: a CPU the affinity mask can name, a process id.
+    auto whole = [](const char* v, double lo, double hi, const char* unit) {
+      const double x = number_in("--spin-load", v, lo, hi, unit);
+      if (x != std::floor(x)) usage((std::string("--spin-load: '") + v + "' is not a whole number of " + unit).c_str());
+      return static_cast<int>(x);
+    };
+    spin_load(whole(argv[2], 0, CPU_SETSIZE - 1, "CPU"), whole(argv[3], 1, std::numeric_limits<int>::max(), "process id"));
+  }
   // Mesa's software renderer frees and allocates its buffers every frame:
   // keep the freed heap in the process (render/heap.h).
   render::keep_freed_heap();
