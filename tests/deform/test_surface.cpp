@@ -363,6 +363,49 @@ TEST(Surface, ActiveSetStepEqualsFullStepOnRandomContactSequences) {
   }
 }
 
+// What the two steps leave for the renderer and for the other replica is
+// the same too: the dirty ranges (taken every third frame, so that marks
+// pile up between uploads), the number of vertices remembered as changed,
+// and a replica brought level from each (every fourth frame), which must
+// then agree with each other bit for bit and in their own dirty ranges.
+// Fails when step_full marks a stream entry dirty, or a vertex changed,
+// where step() does not, or misses one.
+TEST(Surface, FullStepLeavesTheSameDirtyRangesAndChangesAsTheActiveStep) {
+  const double R = 0.1;
+  const MeshPtr m = sphere(3000, R);
+  for (const bool mixed : {false, true}) {
+    const MaterialArrays mats = mixed ? mixed_materials(*m) : MaterialArrays::uniform(m->vertex_count(), linear());
+    for (unsigned seed : {11u, 12u}) {
+      DeformableSurface active(m, mats), full(m, mats);
+      DeformableSurface active_copy(m, mats), full_copy(m, mats);
+      const auto frames = random_frames(*m, R, seed, 240);
+      std::size_t dirty_frames = 0;
+      for (std::size_t n = 0; n < frames.size(); ++n) {
+        const std::string where = std::string(mixed ? "mixed" : "plain") + ", seed " + std::to_string(seed) +
+                                  ", frame " + std::to_string(n);
+        active.set_contacts(frames[n]);
+        full.set_contacts(frames[n]);
+        active.step(1e-3);
+        full.step_full(1e-3);
+        ASSERT_EQ(active.changed_count(), full.changed_count()) << where;
+        if (n % 3 == 2) {
+          const std::vector<IndexRange> a = active.take_dirty_ranges(), f = full.take_dirty_ranges();
+          ASSERT_EQ(a, f) << where;
+          if (!a.empty()) ++dirty_frames;
+        }
+        if (n % 4 == 3) {
+          active_copy.level_with(active);
+          full_copy.level_with(full);
+          expect_level(active_copy, full_copy, where + ", levelled copies");
+          ASSERT_FALSE(HasFatalFailure());
+          ASSERT_EQ(active_copy.take_dirty_ranges(), full_copy.take_dirty_ranges()) << where;
+        }
+      }
+      EXPECT_GT(dirty_frames, 20u) << "the sequence should move the surface between most uploads";
+    }
+  }
+}
+
 // A step's fields (force and normal correction of every vertex) come from
 // its contacts alone: a surface that went through a long random sequence of
 // contact sets has, after each step, the fields of a new surface given only
