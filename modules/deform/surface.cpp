@@ -5,7 +5,9 @@
 #include "deform/surface.h"
 
 #include "core/shared_by_owner.h"
+#include "deform/forced_sweep.h"
 #include "deform/rest_scan.h"
+#include "deform/vertex_flags.h"
 #include "mesh/thickness.h"
 
 #include <algorithm>
@@ -26,16 +28,13 @@ namespace palpa::deform {
 
 namespace {
 
-constexpr std::uint8_t kActive = 1u << 0;
-constexpr std::uint8_t kForced = 1u << 1;
-constexpr std::uint8_t kVisited = 1u << 2;
-constexpr std::uint8_t kDirty = 1u << 3;
-constexpr std::uint8_t kChanged = 1u << 4;  // remembered for level_with (DeformableSurface::kChangedFlag)
-constexpr std::uint8_t kFresh = 1u << 5;    // in a field of the build under way (apply_fields only)
-
-// Notes that vertex i holds a dirty mark: bit (i / 64) % 64 of word i / 4096
-// of the block bitmap take_dirty_ranges walks.
-inline void mark_block(std::uint64_t* blocks, Index i) { blocks[i >> 12] |= std::uint64_t{1} << ((i >> 6) & 63); }
+using internal::kActive;
+using internal::kChanged;
+using internal::kDirty;
+using internal::kForced;
+using internal::kFresh;
+using internal::kVisited;
+using internal::mark_block;
 
 bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
@@ -52,6 +51,8 @@ bool at_rest(const VertexState& s) {
 
 // The widest rest-block skip this processor runs (step_full), chosen once.
 const internal::RestScan kRestScan = internal::best_rest_scan();
+// Whether step_full's runs of blocks in a field go four vertices at a time.
+const bool kForcedRuns = internal::forced_run_available();
 // State larger than this (bytes) is prefetched ahead of step_full's skip.
 constexpr std::size_t kPrefetchStateBytes = std::size_t{512} << 10;
 
@@ -859,6 +860,17 @@ void DeformableSurface::sweep_full(double dt) {
   const bool prefetch = count * sizeof(VertexState) > kPrefetchStateBytes;
   constexpr std::uint64_t kMovingWord = 0x0101010101010101ull * (kForced | kActive);
   const std::size_t whole = count - count % internal::kRestBlock;
+  // One plain Linear material: runs of blocks with vertices in a field, the
+  // others at rest, go four vertices at a time where the processor can
+  // (internal::advance_forced_run, the same bits and marks as vertex by
+  // vertex).
+  constexpr std::uint64_t kForcedWord = 0x0101010101010101ull * kForced;
+  internal::ForcedRun run{};
+  const bool forced_runs = kPlain && kForcedRuns;
+  if (forced_runs) {
+    run = {sweep.state, sweep.force, correction_.empty() ? nullptr : correction_.data()->data(), sweep.limit,
+           sweep.flags, sweep.stream, sweep.dirty_blocks, sweep.all_dirty, active, 0, sweep.changed, 0, sweep.plain};
+  }
   std::size_t i = 0;
   while (i < whole) {
     // A block with a vertex in a field or active goes straight to the
@@ -869,6 +881,25 @@ void DeformableSurface::sweep_full(double dt) {
     if (!(f & kMovingWord)) {
       i = internal::skip_rest_blocks(kRestScan, flags, kForced | kActive, state, i, whole, prefetch);
       if (i == whole) break;
+      std::memcpy(&f, flags + i, sizeof f);
+    }
+    if (forced_runs && (f & kForcedWord) != 0) {
+      run.active_size = kept;
+      run.changed_size = sweep.changed_size;
+      const std::size_t stop = internal::advance_forced_run(run, i, whole);
+      kept = run.active_size;
+      sweep.changed_size = run.changed_size;
+      if (stop % internal::kRestBlock != 0) {
+        // The run refused the second four of a block: they go one by one.
+        for (std::size_t j = stop; j < stop + 4; ++j) one(static_cast<Index>(j));
+        i = stop + 4;
+        continue;
+      }
+      if (stop != i) {
+        i = stop;
+        continue;
+      }
+      // Refused at once (a vertex of the first four moves outside a field).
     }
     for (std::size_t j = i; j < i + internal::kRestBlock; ++j) one(static_cast<Index>(j));
     i += internal::kRestBlock;
