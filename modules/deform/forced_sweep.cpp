@@ -1,10 +1,10 @@
 // The full step's four-wide sweep over vertices in a field, and vertices
-// at rest among them (see forced_sweep.h). Only x86-64 with AVX2 runs it; elsewhere step_full goes
-// vertex by vertex. Vertices are handled in groups of four, whose states
-// (h, v, q), corrections (x, y, z) and stream entries are transposed in
-// registers: the arithmetic is the scalar step's, lane by lane, with no
-// fused multiply-add (the module builds with -ffp-contract=off and AVX2
-// alone does not enable FMA).
+// at rest among them (see forced_sweep.h). Only x86-64 with AVX2 runs it;
+// elsewhere step_full goes vertex by vertex. Vertices are handled in
+// groups of four, whose states (h, v, q) are transposed in registers: the
+// arithmetic is the scalar step's, lane by lane, with no fused
+// multiply-add (the module builds with -ffp-contract=off and AVX2 alone
+// does not enable FMA).
 
 #include "deform/forced_sweep.h"
 
@@ -31,28 +31,6 @@ constexpr std::uint32_t spread4(std::uint8_t bits) { return 0x01010101u * bits; 
 constexpr std::uint32_t kLaneBytes[16] = {
     0x00000000u, 0x000000ffu, 0x0000ff00u, 0x0000ffffu, 0x00ff0000u, 0x00ff00ffu, 0x00ffff00u, 0x00ffffffu,
     0xff000000u, 0xff0000ffu, 0xff00ff00u, 0xff00ffffu, 0xffff0000u, 0xffff00ffu, 0xffffff00u, 0xffffffffu};
-
-// Stream entries of two vertices at p, from `entries` (the first vertex's
-// in the low half): each vertex's four floats are rewritten when any of
-// them differs from what is there (!=, so a NaN always differs and -0
-// equals +0, as the vertex-by-vertex sweep compares) and `lanes` (bits 0
-// and 1) holds it; otherwise its old bits stay. Returns which were
-// rewritten, as bits 0 and 1.
-__attribute__((target("avx2"))) inline unsigned store_changed_pair(float* p, __m256 entries, unsigned lanes) {
-  const __m256 old = _mm256_loadu_ps(p);
-  __m256 differs = _mm256_cmp_ps(old, entries, _CMP_NEQ_UQ);
-  differs = _mm256_or_ps(differs, _mm256_permute_ps(differs, _MM_SHUFFLE(1, 0, 3, 2)));
-  differs = _mm256_or_ps(differs, _mm256_permute_ps(differs, _MM_SHUFFLE(2, 3, 0, 1)));
-  const unsigned mask = static_cast<unsigned>(_mm256_movemask_ps(differs));
-  const unsigned rewritten = ((mask & 1u) | ((mask >> 3) & 2u)) & lanes;
-  if (rewritten != 3u) {
-    const __m256i keep = _mm256_setr_epi32(1, 1, 1, 1, 2, 2, 2, 2);
-    differs = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
-        _mm256_and_si256(_mm256_set1_epi32(static_cast<int>(rewritten)), keep), keep));
-  }
-  _mm256_storeu_ps(p, _mm256_blendv_ps(old, entries, differs));
-  return rewritten;
-}
 
 // The four lanes' flag bit `flag`, as bits 0 to 3.
 inline unsigned lane_bits(std::uint32_t f, std::uint8_t flag) {
@@ -141,23 +119,23 @@ __attribute__((target("avx2"))) inline bool advance_group(ForcedRun& r, std::siz
   const __m256d neg_limit = _mm256_xor_pd(limit, _mm256_set1_pd(-0.0));
   __m256d drawn = _mm256_blendv_pd(h2, limit, _mm256_cmp_pd(h2, limit, _CMP_GT_OQ));
   drawn = _mm256_blendv_pd(drawn, neg_limit, _mm256_cmp_pd(h2, neg_limit, _CMP_LT_OQ));
+
+  // The stream's heights (the fourth float of each entry), rewritten where
+  // they differ (!=, so a NaN always differs and -0 equals +0, as the
+  // vertex-by-vertex sweep compares).
   const __m128 d = _mm256_cvtpd_ps(drawn);
+  float* out = r.stream + 4 * g + 3;
+  const __m128 old = _mm_setr_ps(out[0], out[4], out[8], out[12]);
+  const unsigned differs = static_cast<unsigned>(_mm_movemask_ps(_mm_cmpneq_ps(old, d))) & lanes;
+  if (differs != 0) {
+    alignas(16) float h[4];
+    _mm_store_ps(h, d);
+    for (unsigned lane = 0; lane < 4; ++lane) {
+      if (differs & (1u << lane)) out[4 * lane] = h[lane];
+    }
+  }
 
-  // Corrections as floats: p = x0 y0 z0 x1, q = y1 z1 x2 y2, w = z2 x3 y3 z3.
-  const double* cp = r.correction + 3 * g;
-  const __m128 p = _mm256_cvtpd_ps(_mm256_loadu_pd(cp));
-  const __m128 q = _mm256_cvtpd_ps(_mm256_loadu_pd(cp + 4));
-  const __m128 w = _mm256_cvtpd_ps(_mm256_loadu_pd(cp + 8));
-  const __m128i pi = _mm_castps_si128(p), qi = _mm_castps_si128(q), wi = _mm_castps_si128(w);
-  const __m128 e0 = _mm_insert_ps(p, d, (0 << 6) | (3 << 4));
-  const __m128 e1 = _mm_insert_ps(_mm_castsi128_ps(_mm_alignr_epi8(qi, pi, 12)), d, (1 << 6) | (3 << 4));
-  const __m128 e2 = _mm_insert_ps(_mm_castsi128_ps(_mm_alignr_epi8(wi, qi, 8)), d, (2 << 6) | (3 << 4));
-  const __m128 e3 = _mm_insert_ps(_mm_castsi128_ps(_mm_alignr_epi8(wi, wi, 4)), d, (3 << 6) | (3 << 4));
-  float* out = r.stream + 4 * g;
-  const unsigned differs = store_changed_pair(out, _mm256_set_m128(e1, e0), lanes & 3u) |
-                           store_changed_pair(out + 8, _mm256_set_m128(e3, e2), lanes >> 2) << 2;
-
-  // Flags: a dirty mark for each entry rewritten (one block bit for the
+  // Flags: a dirty mark for each height rewritten (one block bit for the
   // four, which share a 64-vertex block), a changed mark and a place in the
   // changed list for each vertex not yet remembered (in index order), and
   // the lanes in a field stay active.

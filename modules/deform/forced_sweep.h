@@ -20,10 +20,9 @@ namespace palpa::deform::internal {
 struct ForcedRun {
   VertexState* state;          ///< h (m), v (m/s), q
   const double* force;         ///< field force, N
-  const double* correction;    ///< normal corrections, 3 doubles per vertex
   const double* limit;         ///< drawn limit, m
   std::uint8_t* flags;         ///< vertex_flags.h bits
-  float* stream;               ///< (nx, ny, nz, h) per vertex, h in m
+  float* stream;               ///< (nx, ny, nz, h) per vertex, h in m (only h written here)
   std::uint64_t* dirty_blocks; ///< the block bitmap of mark_block
   bool all_dirty;              ///< everything is dirty already: no marks
   Index* active;               ///< the active set, appended to
@@ -39,7 +38,7 @@ bool forced_run_available();
 /// Advances blocks of eight vertices from `begin` (a multiple of 8) up to
 /// `end` (a multiple of 8), four at a time. A vertex in a field (flag
 /// kForced) gets what DeformableSurface's vertex-by-vertex sweep gives it:
-/// the Linear step under its force, its stream entry rewritten where a lane
+/// the Linear step under its force, its stream height rewritten where it
 /// differs (with its dirty mark), its changed mark, and a place in the
 /// active set. A vertex outside every field must be out of the active set
 /// and at rest (h, v and q all +0 or -0), and is left as it is, as that

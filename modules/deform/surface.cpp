@@ -606,15 +606,28 @@ void DeformableSurface::apply_fields() {
     if (!(flags_[i] & kFresh)) leave_fields(i);
   }
   // The vertices in a field: forced, and in the active set (those entering
-  // a field join it here, in the order the fields met them).
+  // a field join it here, in the order the fields met them). Their stream
+  // corrections (nx, ny, nz) are written here, once per build: the steps
+  // write only the height, so a probe held still costs no conversion of
+  // unchanged corrections.
   {
     std::uint8_t* flags = flags_.data();
     Index* active = active_.data();
+    float* stream = stream_.data();
     std::size_t active_size = active_size_;
     for (Index i : forced_) {
       const std::uint8_t f = flags[i];
       if (!(f & kActive)) active[active_size++] = i;
       flags[i] = static_cast<std::uint8_t>((f & ~kFresh) | kForced | kActive);
+      const Vec3& c = correction_[i];
+      const float nx = static_cast<float>(c.x()), ny = static_cast<float>(c.y()), nz = static_cast<float>(c.z());
+      float* p = stream + 4 * static_cast<std::size_t>(i);
+      if (p[0] != nx || p[1] != ny || p[2] != nz) {
+        p[0] = nx;
+        p[1] = ny;
+        p[2] = nz;
+        mark_dirty(i);
+      }
     }
     active_size_ = active_size;
   }
@@ -668,7 +681,6 @@ template <bool kPlain>
 struct DeformableSurface::Sweep {
   VertexState* state;
   const double* force;
-  const Vec3* correction;
   const Index* integrator_of;
   const Integrator* integrators;
   LinearStep plain;    // kPlain: the one material's step for dt
@@ -687,7 +699,6 @@ struct DeformableSurface::Sweep {
   Sweep(DeformableSurface& s, double step_dt)
       : state(s.state_.vertices.data()),
         force(s.force_.data()),
-        correction(s.correction_.data()),
         integrator_of(s.integrator_of_.data()),
         integrators(s.integrators_.data()),
         plain(kPlain ? s.plain_linear()->linear : LinearStep{}),
@@ -738,48 +749,22 @@ struct DeformableSurface::Sweep {
     return record(i, f, s, forced);
   }
 
-  // After vertex i's integration: its stream entry, flags and place in the
-  // changed list; returns whether it stays active.
+  // After vertex i's integration: its stream height, flags and place in the
+  // changed list; returns whether it stays active. (The stream's
+  // correction is written when the fields are built, apply_fields.)
   [[gnu::always_inline]] bool record(Index i, std::uint8_t f, VertexState& s, bool forced) {
-    float* p = stream + 4 * static_cast<std::size_t>(i);
     bool stays = true;
-    if (forced) {
-      // In a field: correction and height may both have changed.
-      const Vec3& c = correction[i];
-#if defined(__SSE2__)
-      // The same conversions and comparisons, four lanes at once: (nx, ny,
-      // nz, h) as floats, rewritten when any lane differs (!=, as below).
-      const double hd = drawn_double(s.h, limit[i]);
-      const __m128 xy = _mm_cvtpd_ps(_mm_loadu_pd(c.data()));
-      const __m128 zh = _mm_cvtpd_ps(_mm_set_pd(hd, c.z()));
-      const __m128 v = _mm_movelh_ps(xy, zh);
-      if (_mm_movemask_ps(_mm_cmpneq_ps(_mm_loadu_ps(p), v)) != 0) {
-        _mm_storeu_ps(p, v);
-        mark(i, f);
-      }
-#else
-      const float nx = static_cast<float>(c.x()), ny = static_cast<float>(c.y()), nz = static_cast<float>(c.z());
-      const float h = drawn(s.h, limit[i]);
-      if (p[0] != nx || p[1] != ny || p[2] != nz || p[3] != h) {
-        p[0] = nx;
-        p[1] = ny;
-        p[2] = nz;
-        p[3] = h;
-        mark(i, f);
-      }
-#endif
-    } else {
-      // No field (its stream correction is already zero). A vertex that has
-      // (nearly) stopped is set exactly to rest and leaves the active set.
-      if (std::abs(s.h) <= rest && std::abs(s.v) * dt <= rest && std::abs(s.q) <= rest) {
-        s = VertexState{};
-        stays = false;
-      }
-      const float h = drawn(s.h, limit[i]);
-      if (p[3] != h) {
-        p[3] = h;
-        mark(i, f);
-      }
+    if (!forced && std::abs(s.h) <= rest && std::abs(s.v) * dt <= rest && std::abs(s.q) <= rest) {
+      // No field, and (nearly) stopped: set exactly to rest, out of the
+      // active set.
+      s = VertexState{};
+      stays = false;
+    }
+    float* p = stream + 4 * static_cast<std::size_t>(i) + 3;
+    const float h = drawn(s.h, limit[i]);
+    if (*p != h) {
+      *p = h;
+      mark(i, f);
     }
     if (!(f & kChanged)) {
       f |= kChanged;
@@ -815,7 +800,6 @@ void DeformableSurface::sweep_active(double dt) {
       const Index a = active[k + kAhead];
       __builtin_prefetch(sweep.state + a, 1);
       __builtin_prefetch(sweep.force + a);
-      __builtin_prefetch(sweep.correction + a);
       if constexpr (!kPlain) __builtin_prefetch(sweep.integrator_of + a);
       __builtin_prefetch(sweep.stream + 4 * static_cast<std::size_t>(a), 1);
       __builtin_prefetch(sweep.limit + a);
@@ -868,8 +852,8 @@ void DeformableSurface::sweep_full(double dt) {
   internal::ForcedRun run{};
   const bool forced_runs = kPlain && kForcedRuns;
   if (forced_runs) {
-    run = {sweep.state, sweep.force, correction_.empty() ? nullptr : correction_.data()->data(), sweep.limit,
-           sweep.flags, sweep.stream, sweep.dirty_blocks, sweep.all_dirty, active, 0, sweep.changed, 0, sweep.plain};
+    run = {sweep.state, sweep.force,  sweep.limit, sweep.flags, sweep.stream, sweep.dirty_blocks,
+           sweep.all_dirty, active,   0,           sweep.changed, 0,          sweep.plain};
   }
   std::size_t i = 0;
   while (i < whole) {

@@ -1,13 +1,13 @@
 // The full step's four-wide sweep over vertices in a field
 // (deform/forced_sweep.h), against a vertex-by-vertex reference written
 // here from what the header promises: the Linear step in its order of
-// operations, the drawn height clamped to the limit, the stream entry
-// rewritten (and marked dirty) only where a lane differs, the changed and
+// operations, the drawn height clamped to the limit, the stream's height
+// rewritten (and marked dirty) only where it differs, the changed and
 // active lists in index order, vertices at rest outside every field left
 // as they are, and a stop at the first block with no vertex in
 // a field or at the first four with a vertex outside every field that is
 // active or moving. Inputs are chosen to reach every branch: -0 and NaN in
-// the state and the stream, zero and infinite limits, stream entries equal
+// the state and the stream, zero and infinite limits, stream heights equal
 // to the new ones, dirty and changed marks on some vertices of a four, and
 // vertices at rest, active or moving beside vertices in a field.
 
@@ -33,7 +33,7 @@ namespace {
 
 struct Arrays {
   std::vector<VertexState> state;
-  std::vector<double> force, correction, limit;
+  std::vector<double> force, limit;
   std::vector<std::uint8_t> flags;
   std::vector<float> stream;
   std::vector<std::uint64_t> dirty_blocks;
@@ -65,12 +65,9 @@ std::size_t reference(Arrays& a, const LinearStep& step, bool all_dirty, std::si
         step.apply(s, a.force[j]);
         const double h = s.h, lim = a.limit[j];
         const double drawn = h < -lim ? -lim : (h > lim ? lim : h);
-        const float entry[4] = {static_cast<float>(a.correction[3 * j]),
-                                static_cast<float>(a.correction[3 * j + 1]),
-                                static_cast<float>(a.correction[3 * j + 2]), static_cast<float>(drawn)};
-        float* p = &a.stream[4 * j];
-        if (p[0] != entry[0] || p[1] != entry[1] || p[2] != entry[2] || p[3] != entry[3]) {
-          std::memcpy(p, entry, sizeof entry);
+        float& p = a.stream[4 * j + 3];
+        if (p != static_cast<float>(drawn)) {
+          p = static_cast<float>(drawn);
           if (!all_dirty && !(f & kDirty)) {
             f |= kDirty;
             mark_block(a.dirty_blocks.data(), static_cast<Index>(j));
@@ -115,7 +112,6 @@ Arrays random_arrays(std::mt19937_64& rng, std::size_t count, int rest_every, in
   Arrays a;
   a.state.resize(count);
   a.force.resize(count);
-  a.correction.resize(3 * count);
   a.limit.resize(count);
   a.flags.resize(count);
   a.stream.resize(4 * count);
@@ -125,7 +121,6 @@ Arrays random_arrays(std::mt19937_64& rng, std::size_t count, int rest_every, in
   for (std::size_t i = 0; i < count; ++i) {
     a.state[i] = {value(0.004), value(0.5), value(1.0)};
     a.force[i] = value(2.0);
-    for (int k = 0; k < 3; ++k) a.correction[3 * i + k] = value(0.3);
     const int l = pick(rng);
     a.limit[i] = l == 0 ? 0.0 : (l == 1 ? inf : 0.001 + 0.003 * std::abs(u(rng)));
     std::uint8_t f = kForced | kActive;
@@ -154,20 +149,18 @@ Arrays random_arrays(std::mt19937_64& rng, std::size_t count, int rest_every, in
       a.state[j] = {};
     }
   }
-  // Stream entries: some already what the step will write (no rewrite, no
-  // mark), some with one lane off, some -0 where the step writes +0.
+  // Stream heights: some already what the step will write (no rewrite, no
+  // mark), some off, some -0 where the step writes +0; the corrections
+  // before them are left as they are.
   for (std::size_t i = 0; i < count; ++i) {
     VertexState s = a.state[i];
     step.apply(s, a.force[i]);
     const double lim = a.limit[i];
-    const double drawn = s.h < -lim ? -lim : (s.h > lim ? lim : s.h);
-    float* p = &a.stream[4 * i];
-    const float entry[4] = {static_cast<float>(a.correction[3 * i]), static_cast<float>(a.correction[3 * i + 1]),
-                            static_cast<float>(a.correction[3 * i + 2]), static_cast<float>(drawn)};
-    std::memcpy(p, entry, sizeof entry);
+    const float drawn = static_cast<float>(s.h < -lim ? -lim : (s.h > lim ? lim : s.h));
+    for (int k = 0; k < 3; ++k) a.stream[4 * i + k] = static_cast<float>(value(0.3));
+    float& p = a.stream[4 * i + 3];
     const int how = pick(rng);
-    if (how < 5) p[how % 4] += 0.25f;
-    else if (how == 5) for (int k = 0; k < 4; ++k) p[k] = p[k] == 0.0f ? -p[k] : p[k];
+    p = how < 5 ? drawn + 0.25f : (how == 5 && drawn == 0.0f ? -drawn : drawn);
   }
   return a;
 }
@@ -202,10 +195,9 @@ TEST(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
     ours.changed_size = trial % 2;
     Arrays ref = ours;
     const std::size_t begin = 8 * static_cast<std::size_t>(trial % 3 == 0 ? 0 : trial % (count / 8));
-    ForcedRun run{ours.state.data(),  ours.force.data(),        ours.correction.data(), ours.limit.data(),
-                  ours.flags.data(),  ours.stream.data(),       ours.dirty_blocks.data(), all_dirty,
-                  ours.active.data(), ours.active_size,         ours.changed.data(),     ours.changed_size,
-                  step};
+    ForcedRun run{ours.state.data(),  ours.force.data(),  ours.limit.data(),   ours.flags.data(),
+                  ours.stream.data(), ours.dirty_blocks.data(), all_dirty,   ours.active.data(),
+                  ours.active_size,   ours.changed.data(),      ours.changed_size, step};
     const std::size_t stop = advance_forced_run(run, begin, count);
     const std::size_t ref_stop = reference(ref, step, all_dirty, begin, count);
     const std::string where = "trial " + std::to_string(trial) + " (" + std::to_string(count) + " vertices from " +
@@ -240,8 +232,8 @@ TEST(ForcedSweep, StopsAtOnceWhereItCannotGo) {
       if (gap || j == 10) a.flags[j] &= static_cast<std::uint8_t>(~kForced);
     }
     const Arrays before = a;
-    ForcedRun run{a.state.data(), a.force.data(), a.correction.data(), a.limit.data(), a.flags.data(),
-                  a.stream.data(), a.dirty_blocks.data(), false, a.active.data(), 0, a.changed.data(), 0, step};
+    ForcedRun run{a.state.data(),  a.force.data(), a.limit.data(), a.flags.data(), a.stream.data(),
+                  a.dirty_blocks.data(), false, a.active.data(), 0, a.changed.data(), 0, step};
     EXPECT_EQ(advance_forced_run(run, 8, 64), 8u) << (gap ? "no vertex in a field" : "an active vertex");
     EXPECT_EQ(run.active_size, 0u);
     EXPECT_EQ(run.changed_size, 0u);
