@@ -20,10 +20,6 @@
 #include <string>
 #include <utility>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 namespace palpa::deform {
 
 namespace {
@@ -614,20 +610,27 @@ void DeformableSurface::apply_fields() {
     std::uint8_t* flags = flags_.data();
     Index* active = active_.data();
     float* stream = stream_.data();
+    const Vec3* correction = correction_.data();
+    std::uint64_t* dirty_blocks = dirty_blocks_.data();
+    const bool all_dirty = all_dirty_;
     std::size_t active_size = active_size_;
     for (Index i : forced_) {
-      const std::uint8_t f = flags[i];
+      std::uint8_t f = flags[i];
       if (!(f & kActive)) active[active_size++] = i;
-      flags[i] = static_cast<std::uint8_t>((f & ~kFresh) | kForced | kActive);
-      const Vec3& c = correction_[i];
+      f = static_cast<std::uint8_t>((f & ~kFresh) | kForced | kActive);
+      const Vec3& c = correction[i];
       const float nx = static_cast<float>(c.x()), ny = static_cast<float>(c.y()), nz = static_cast<float>(c.z());
       float* p = stream + 4 * static_cast<std::size_t>(i);
       if (p[0] != nx || p[1] != ny || p[2] != nz) {
         p[0] = nx;
         p[1] = ny;
         p[2] = nz;
-        mark_dirty(i);
+        if (!all_dirty && !(f & kDirty)) {  // mark_dirty, on the flags in hand
+          f |= kDirty;
+          mark_block(dirty_blocks, i);
+        }
       }
+      flags[i] = f;
     }
     active_size_ = active_size;
   }
