@@ -8,6 +8,7 @@
 
 #include "deform/forced_sweep.h"
 
+#include "deform/rest_scan.h"
 #include "deform/vertex_flags.h"
 
 #include <bit>
@@ -202,19 +203,13 @@ __attribute__((target("avx2"))) std::size_t run_avx2(ForcedRun& caller, std::siz
   return stop;
 }
 
-bool has_avx2() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-}
-
 #endif
 
 }  // namespace
 
 bool forced_run_available() {
 #if defined(PALPA_FORCED_RUN_X86)
-  static const bool avx2 = has_avx2();
-  return avx2;
+  return rest_scan_available(RestScan::Avx2);  // the same question, asked once there
 #else
   return false;
 #endif
