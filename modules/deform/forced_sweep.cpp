@@ -41,7 +41,7 @@ constexpr unsigned lane_bits(std::uint32_t f, std::uint8_t flag) {
   const unsigned shift = static_cast<unsigned>(std::countr_zero(flag));
   return (((f >> shift) & 0x01010101u) * 0x01020408u) >> 24;
 }
-static_assert(lane_bits(0x02000002u, 0x02) == 0b1001u && lane_bits(0x00020200u, 0x02) == 0b0110u);
+static_assert(lane_bits(0x02000002u, 0x02) == 0b1001u && lane_bits(0x00000202u, 0x02) == 0b0011u);
 static_assert(lane_bits(0xfefefefeu, 0x01) == 0u && lane_bits(0x01010101u, 0x01) == 0b1111u);
 
 // The coefficients of the step, one per lane.
