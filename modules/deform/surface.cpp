@@ -852,12 +852,9 @@ void DeformableSurface::sweep_full(double dt) {
   // (internal::advance_forced_run, the same bits and marks as vertex by
   // vertex).
   constexpr std::uint64_t kForcedWord = 0x0101010101010101ull * kForced;
-  internal::ForcedRun run{};
   const bool forced_runs = kPlain && kForcedRuns;
-  if (forced_runs) {
-    run = {sweep.state, sweep.force,  sweep.limit, sweep.flags, sweep.stream, sweep.dirty_blocks,
-           sweep.all_dirty, active,   0,           sweep.changed, 0,          sweep.plain};
-  }
+  internal::ForcedRun run{sweep.state,     sweep.force, sweep.limit, sweep.flags,   sweep.stream, sweep.dirty_blocks,
+                          sweep.all_dirty, active,      0,           sweep.changed, 0,            sweep.plain};
   std::size_t i = 0;
   while (i < whole) {
     // A block with a vertex in a field or active goes straight to the
