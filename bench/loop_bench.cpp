@@ -221,7 +221,8 @@ pid_t start_load() {
   char* args[] = {name.data(), flag.data(), cpu.data(), parent.data(), nullptr};
   pid_t pid = -1;
   if (const int rc = posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, args, environ); rc != 0) {
-    std::fprintf(stderr, "palpa-loop-bench: cannot start the load on the second core (posix_spawn of /proc/self/exe: %s)\n",
+    std::fprintf(stderr,
+                 "palpa-loop-bench: cannot start the load on the second core (posix_spawn of /proc/self/exe: %s)\n",
                  std::strerror(rc));
     std::exit(1);
   }
@@ -499,7 +500,8 @@ int main(int argc, char** argv) {
       if (x != std::floor(x)) usage((std::string("--spin-load: '") + v + "' is not a whole number of " + unit).c_str());
       return static_cast<int>(x);
     };
-    spin_load(whole(argv[2], 0, CPU_SETSIZE - 1, "CPU"), whole(argv[3], 1, std::numeric_limits<int>::max(), "process id"));
+    spin_load(whole(argv[2], 0, CPU_SETSIZE - 1, "CPU"),
+              whole(argv[3], 1, std::numeric_limits<int>::max(), "process id"));
   }
   // Mesa's software renderer frees and allocates its buffers every frame:
   // keep the freed heap in the process (render/heap.h).

@@ -369,8 +369,8 @@ class HapticLoop {
 
   // Statistics (written by the threads, read by anyone).
   DurationHistogram tick_hist_, jitter_hist_, latency_hist_, deform_hist_;
-  std::atomic<std::uint64_t> ticks_{0}, warm_ups_{0}, touches_{0}, misses_{0}, skipped_{0}, watchdog_trips_{0}, model_late_{0},
-      record_drops_{0}, deform_steps_{0}, deform_overruns_{0}, deform_drops_{0};
+  std::atomic<std::uint64_t> ticks_{0}, warm_ups_{0}, touches_{0}, misses_{0}, skipped_{0}, watchdog_trips_{0},
+      model_late_{0}, record_drops_{0}, deform_steps_{0}, deform_overruns_{0}, deform_drops_{0};
   std::atomic<double> start_time_{0}, stop_time_{0}, last_miss_time_{-1e9}, deform_start_time_{0};
   std::atomic<bool> realtime_{false};
   std::string realtime_notice_;  // written before haptic_ready_, read after
