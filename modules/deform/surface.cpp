@@ -20,9 +20,40 @@
 #include <string>
 #include <utility>
 
+#if defined(__x86_64__)
+#include <xmmintrin.h>
+#endif
+
 namespace palpa::deform {
 
 namespace {
+
+// For the duration of a step, subnormal results and operands of this
+// thread's SSE and AVX arithmetic are taken as zero (MXCSR's flush-to-zero
+// and denormals-are-zero bits), then the caller's mode comes back. A vertex
+// held in a field decays towards its rest velocity geometrically; without
+// this its velocity passes through the subnormal range (below 2.2e-308
+// m/s) for about twenty steps, in which the processor takes a microcode
+// assist on every operation and a step of the 1M sphere under three held
+// contacts took 1.2 to 1.6 ms instead of 0.2. With it the velocity reaches
+// exactly zero. step() and step_full() both run under it, so they still
+// give the same bits. Elsewhere than x86-64 nothing changes.
+class SubnormalsAsZero {
+ public:
+#if defined(__x86_64__)
+  SubnormalsAsZero() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | kFlushToZero | kDenormalsAreZero); }
+  ~SubnormalsAsZero() { _mm_setcsr(saved_); }
+
+ private:
+  static constexpr unsigned kFlushToZero = 1u << 15;
+  static constexpr unsigned kDenormalsAreZero = 1u << 6;
+  unsigned saved_;
+#else
+  SubnormalsAsZero() = default;
+#endif
+  SubnormalsAsZero(const SubnormalsAsZero&) = delete;
+  SubnormalsAsZero& operator=(const SubnormalsAsZero&) = delete;
+};
 
 using internal::kActive;
 using internal::kChanged;
@@ -780,6 +811,7 @@ struct DeformableSurface::Sweep {
 
 void DeformableSurface::step(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return;
+  const SubnormalsAsZero flush;
   prepare_step(dt);  // the vertices in a field are in the active set from here
   if (plain_linear()) sweep_active<true>(dt);
   else sweep_active<false>(dt);
@@ -817,6 +849,7 @@ void DeformableSurface::sweep_active(double dt) {
 
 void DeformableSurface::step_full(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return;
+  const SubnormalsAsZero flush;
   prepare_step(dt);
   if (plain_linear()) sweep_full<true>(dt);
   else sweep_full<false>(dt);
