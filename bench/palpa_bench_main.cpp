@@ -75,6 +75,7 @@ constexpr double kTargetGrowth = 1.5;          // tick p99 from 10k to 1M vertic
 constexpr double kTargetFlatness = 2.0;        // tick p99 of the fan and sliver spheres over the even one
 constexpr double kTargetQuerySpeedup = 3.0;    // cgal_hint / local at p50 and p99
 constexpr double kTargetCopyFraction = 0.5;    // step_full vs memcpy
+constexpr int kHeldSteps = 600;                // active steps with the contacts held still (1.2 s at 2 ms)
 
 // ---------------------------------------------------------------------------
 // Command line.
@@ -980,6 +981,35 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     const std::vector<deform::Contact> held(surface.contacts().begin(), surface.contacts().end());
     std::vector<deform::Contact> nudged = held;
     for (auto& c : nudged) c.depth = std::nextafter(c.depth, std::numeric_limits<double>::infinity());
+    // The active step with the last contacts held still for kHeldSteps steps,
+    // from the state the tick run left (restored afterwards): the vertices in
+    // the fields settle, and their velocities decay towards zero through
+    // the range where, without the step's flush of subnormal values, every
+    // operation on them took a microcode assist (about 0.7 s in).
+    {
+      const deform::SurfaceState before = surface.state();
+      std::vector<double> held_ns;
+      held_ns.reserve(kHeldSteps);
+      for (int n = 0; n < kHeldSteps; ++n) {
+        const auto a = Clock::now();
+        surface.step(kDeformPeriod);
+        held_ns.push_back(elapsed_ns(a, Clock::now()));
+        surface.clear_changes();
+      }
+      const Latency held_lat = bench::latency_of(held_ns);
+      std::printf("[%s] %d probe%s: the active step with the contacts held still, %d steps of %.0f ms: p50 %.1f "
+                  "p99 %.1f max %.1f us\n",
+                  mc.name.c_str(), probes, probes == 1 ? "" : "s", kHeldSteps, kDeformPeriod * 1e3,
+                  held_lat.p50_us, held_lat.p99_us, held_lat.max_us);
+      json r = base;
+      r.update(latency_json(held_lat));
+      r["suite"] = "step_held";
+      r["probes"] = probes;
+      r["steps"] = kHeldSteps;
+      r["dt_s"] = kDeformPeriod;
+      res.records.push_back(r);
+      surface.restore(before, held);
+    }
     auto time_full = [&](bool new_contacts) {
       std::vector<double> seconds;
       double total = 0;
