@@ -1,10 +1,11 @@
-// The full step's four-wide sweep over vertices in a field, and vertices
-// at rest among them (see forced_sweep.h). Only x86-64 with AVX2 runs it;
+// The full step's sweep over vertices in a field, and vertices at rest
+// among them (see forced_sweep.h). Only x86-64 with AVX2 runs it;
 // elsewhere step_full goes vertex by vertex. Vertices are handled in
-// groups of four, whose states (h, v, q) are transposed in registers: the
+// groups of four, or with AVX-512 blocks of eight wholly in a field in
+// groups of eight, whose states (h, v, q) are transposed in registers: the
 // arithmetic is the scalar step's, lane by lane, with no fused
-// multiply-add (the module builds with -ffp-contract=off and AVX2 alone
-// does not enable FMA).
+// multiply-add (the module builds with -ffp-contract=off, and the
+// intrinsics used here are separate multiplications and additions).
 
 #include "deform/forced_sweep.h"
 
@@ -175,20 +176,33 @@ __attribute__((target("avx2"))) inline bool advance_group(ForcedRun& r, std::siz
   return true;
 }
 
+__attribute__((target("avx2"))) inline Coefficients coefficients(const LinearStep& s) {
+  return {_mm256_set1_pd(s.inv_k), _mm256_set1_pd(s.p00), _mm256_set1_pd(s.p01), _mm256_set1_pd(s.p10),
+          _mm256_set1_pd(s.p11)};
+}
+
+// Block i (with a vertex in a field) four by four: returns i + 8, or the
+// first four refused.
+__attribute__((target("avx2"))) inline std::size_t advance_fours(ForcedRun& r, std::size_t i, const Coefficients& k) {
+  for (std::size_t g = i; g < i + 8; g += 4) {
+    std::uint32_t f;
+    std::memcpy(&f, r.flags + g, sizeof f);
+    const unsigned lanes = (f & spread4(kForced)) == spread4(kForced) ? 0xfu : lane_bits(f, kForced);
+    if (!advance_group(r, g, f, lanes, k)) return g;
+  }
+  return i + 8;
+}
+
+constexpr std::uint64_t kForcedWord = 0x0101010101010101ull * kForced;
+
 __attribute__((target("avx2"))) inline std::size_t run_on(ForcedRun& r, std::size_t i, std::size_t end) {
-  const Coefficients k{_mm256_set1_pd(r.step.inv_k), _mm256_set1_pd(r.step.p00), _mm256_set1_pd(r.step.p01),
-                       _mm256_set1_pd(r.step.p10), _mm256_set1_pd(r.step.p11)};
-  constexpr std::uint64_t kForcedWord = 0x0101010101010101ull * kForced;
+  const Coefficients k = coefficients(r.step);
   for (; i < end; i += 8) {
     std::uint64_t f8;
     std::memcpy(&f8, r.flags + i, sizeof f8);
     if ((f8 & kForcedWord) == 0) break;  // no vertex in a field: the caller's skip
-    for (std::size_t g = i; g < i + 8; g += 4) {
-      std::uint32_t f;
-      std::memcpy(&f, r.flags + g, sizeof f);
-      const unsigned lanes = (f & spread4(kForced)) == spread4(kForced) ? 0xfu : lane_bits(f, kForced);
-      if (!advance_group(r, g, f, lanes, k)) return g;
-    }
+    const std::size_t next = advance_fours(r, i, k);
+    if (next != i + 8) return next;
   }
   return i;
 }
@@ -203,22 +217,184 @@ __attribute__((target("avx2"))) std::size_t run_avx2(ForcedRun& caller, std::siz
   return stop;
 }
 
+// ---------------------------------------------------------------------------
+// Eight at a time (AVX-512 F, VL, BW, DQ and BMI2): a block whose eight
+// vertices are all in a field is one group of eight; any other block with a
+// vertex in a field goes four by four as above (advance_group), so the two
+// widths stop at the same places.
+#define PALPA_AVX512 "avx2,bmi,bmi2,popcnt,avx512f,avx512vl,avx512bw,avx512dq"
+
+// GCC 12's AVX-512 headers initialise their undefined lanes from themselves,
+// which -Wmaybe-uninitialized reports wherever they are inlined (GCC 13's
+// headers silence it themselves).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+constexpr std::uint64_t spread8(std::uint8_t bits) { return 0x0101010101010101ull * bits; }
+static_assert(spread8(kForced) == kForcedWord);
+
+// The step's coefficients and the permutations of a block's states.
+struct Coefficients8 {
+  __m512d inv_k, p00, p01, p10, p11;
+  __m512i h_ab, h_c, v_ab, v_c;  // gather h and v from the three loads
+  __m512i a_hv, b_hv, c_hv;      // put them back
+  __m512i heights;               // the stream's fourth floats of eight entries
+  __m512i spread_lo, spread_hi;  // eight floats to the fourth float of each entry
+};
+
+__attribute__((target(PALPA_AVX512))) inline Coefficients8 coefficients8(const LinearStep& s) {
+  Coefficients8 k;
+  k.inv_k = _mm512_set1_pd(s.inv_k);
+  k.p00 = _mm512_set1_pd(s.p00);
+  k.p01 = _mm512_set1_pd(s.p01);
+  k.p10 = _mm512_set1_pd(s.p10);
+  k.p11 = _mm512_set1_pd(s.p11);
+  // A block's 24 doubles: a = 0..7, b = 8..15, c = 16..23; vertex j's h, v,
+  // q at 3j, 3j + 1, 3j + 2. An index of two-table permutations: 0..7 the
+  // first table, 8..15 the second.
+  k.h_ab = _mm512_setr_epi64(0, 3, 6, 9, 12, 15, 0, 0);  // h0..h5 from (a, b)
+  k.h_c = _mm512_setr_epi64(0, 0, 0, 0, 0, 0, 2, 5);     // h6, h7 from c
+  k.v_ab = _mm512_setr_epi64(1, 4, 7, 10, 13, 0, 0, 0);  // v0..v4 from (a, b)
+  k.v_c = _mm512_setr_epi64(0, 0, 0, 0, 0, /* v5: */ 0, 3, 6);  // v5, v6, v7 from c
+  // Back, from (h, v): a = h0 v0 q0 h1 v1 q1 h2 v2, b = q2 h3 v3 q3 h4 v4 q4 h5,
+  // c = v5 q5 h6 v6 q6 h7 v7 q7 (the q lanes are kept from the loads).
+  k.a_hv = _mm512_setr_epi64(0, 8, 0, 1, 9, 0, 2, 10);
+  k.b_hv = _mm512_setr_epi64(0, 3, 11, 0, 4, 12, 0, 5);
+  k.c_hv = _mm512_setr_epi64(13, 0, 6, 14, 0, 7, 15, 0);
+  k.heights = _mm512_setr_epi32(3, 7, 11, 15, 19, 23, 27, 31, 0, 0, 0, 0, 0, 0, 0, 0);
+  k.spread_lo = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 3);
+  k.spread_hi = _mm512_setr_epi32(0, 0, 0, 4, 0, 0, 0, 5, 0, 0, 0, 6, 0, 0, 0, 7);
+  return k;
+}
+
+// The eight vertices of block i, all in a field (f their flags): what
+// advance_group gives the two fours, in one group.
+__attribute__((target(PALPA_AVX512))) inline void advance_block8(ForcedRun& r, std::size_t i, std::uint64_t f,
+                                                                 const Coefficients8& k) {
+  double* s = reinterpret_cast<double*>(r.state + i);
+  const __m512d a = _mm512_loadu_pd(s), b = _mm512_loadu_pd(s + 8), c = _mm512_loadu_pd(s + 16);
+  const __m512d h = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(a, k.h_ab, b), 0xc0, k.h_c, c);
+  const __m512d v = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(a, k.v_ab, b), 0xe0, k.v_c, c);
+
+  // LinearStep::apply, lane by lane, in its order of operations.
+  const __m512d hf = _mm512_mul_pd(_mm512_loadu_pd(r.force + i), k.inv_k);
+  const __m512d dh = _mm512_sub_pd(h, hf);
+  const __m512d h2 = _mm512_add_pd(_mm512_add_pd(hf, _mm512_mul_pd(k.p00, dh)), _mm512_mul_pd(k.p01, v));
+  const __m512d v2 = _mm512_add_pd(_mm512_mul_pd(k.p10, dh), _mm512_mul_pd(k.p11, v));
+
+  // Back in h v q order, each double stored only where its bits change: a
+  // vertex held at its equilibrium (v exactly 0, h exactly f / k) leaves its
+  // cache lines clean.
+  const __m512d a2 = _mm512_mask_blend_pd(0xdb, a, _mm512_permutex2var_pd(h2, k.a_hv, v2));
+  const __m512d b2 = _mm512_mask_blend_pd(0xb6, b, _mm512_permutex2var_pd(h2, k.b_hv, v2));
+  const __m512d c2 = _mm512_mask_blend_pd(0x6d, c, _mm512_permutex2var_pd(h2, k.c_hv, v2));
+  _mm512_mask_storeu_pd(s, _mm512_cmpneq_epi64_mask(_mm512_castpd_si512(a2), _mm512_castpd_si512(a)), a2);
+  _mm512_mask_storeu_pd(s + 8, _mm512_cmpneq_epi64_mask(_mm512_castpd_si512(b2), _mm512_castpd_si512(b)), b2);
+  _mm512_mask_storeu_pd(s + 16, _mm512_cmpneq_epi64_mask(_mm512_castpd_si512(c2), _mm512_castpd_si512(c)), c2);
+
+  // The drawn height, as advance_group.
+  const __m512d limit = _mm512_loadu_pd(r.limit + i);
+  const __m512d neg_limit = _mm512_xor_pd(limit, _mm512_set1_pd(-0.0));
+  __m512d drawn = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(h2, limit, _CMP_GT_OQ), h2, limit);
+  drawn = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(h2, neg_limit, _CMP_LT_OQ), drawn, neg_limit);
+
+  // The stream's heights, rewritten where they differ (NEQ_UQ, as _mm_cmpneq_ps).
+  const __m256 d = _mm512_cvtpd_ps(drawn);
+  float* out = r.stream + 4 * i;
+  const __m512 old = _mm512_permutex2var_ps(_mm512_loadu_ps(out), k.heights, _mm512_loadu_ps(out + 16));
+  const unsigned differs = _mm256_cmp_ps_mask(_mm512_castps512_ps256(old), d, _CMP_NEQ_UQ);
+  if (differs != 0) {
+    const __m512 wide = _mm512_castps256_ps512(d);
+    _mm512_mask_storeu_ps(out, static_cast<__mmask16>(_pdep_u32(differs & 0xfu, 0x8888u)),
+                          _mm512_permutexvar_ps(k.spread_lo, wide));
+    _mm512_mask_storeu_ps(out + 16, static_cast<__mmask16>(_pdep_u32(differs >> 4, 0x8888u)),
+                          _mm512_permutexvar_ps(k.spread_hi, wide));
+  }
+
+  // Flags and lists, as advance_group gives the two fours.
+  if (!r.all_dirty) {
+    const std::uint64_t dirty = _pdep_u64(differs, spread8(kDirty)) & ~f;
+    if (dirty != 0) {
+      f |= dirty;
+      mark_block(r.dirty_blocks, static_cast<Index>(i));
+    }
+  }
+  const std::uint64_t fresh = spread8(kChanged) & ~f;
+  const __m256i indices =
+      _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(i)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  if (fresh == spread8(kChanged)) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.changed + r.changed_size), indices);
+    r.changed_size += 8;
+  } else if (fresh != 0) {
+    const unsigned lanes = static_cast<unsigned>(_pext_u64(fresh, spread8(kChanged)));
+    _mm256_mask_compressstoreu_epi32(r.changed + r.changed_size, static_cast<__mmask8>(lanes), indices);
+    r.changed_size += static_cast<std::size_t>(std::popcount(lanes));
+  }
+  f |= fresh | spread8(kActive);
+  std::memcpy(r.flags + i, &f, sizeof f);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.active + r.active_size), indices);
+  r.active_size += 8;
+}
+
+__attribute__((target(PALPA_AVX512))) inline std::size_t run_on8(ForcedRun& r, std::size_t i, std::size_t end) {
+  const Coefficients k = coefficients(r.step);
+  const Coefficients8 k8 = coefficients8(r.step);
+  for (; i < end; i += 8) {
+    std::uint64_t f8;
+    std::memcpy(&f8, r.flags + i, sizeof f8);
+    const std::uint64_t forced = f8 & kForcedWord;
+    if (forced == kForcedWord) {
+      advance_block8(r, i, f8, k8);
+      continue;
+    }
+    if (forced == 0) break;  // no vertex in a field: the caller's skip
+    const std::size_t next = advance_fours(r, i, k);
+    if (next != i + 8) return next;
+  }
+  return i;
+}
+
+__attribute__((target(PALPA_AVX512))) std::size_t run_avx512(ForcedRun& caller, std::size_t i, std::size_t end) {
+  ForcedRun r = caller;  // as run_avx2
+  const std::size_t stop = run_on8(r, i, end);
+  caller.active_size = r.active_size;
+  caller.changed_size = r.changed_size;
+  return stop;
+}
+
+#pragma GCC diagnostic pop
+
+bool has_avx512() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+         __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("bmi2");
+}
+
 #endif
 
 }  // namespace
 
-bool forced_run_available() {
+bool forced_run_available(ForcedRunWidth width) {
 #if defined(PALPA_FORCED_RUN_X86)
-  return rest_scan_available(RestScan::Avx2);  // the same question, asked once there
+  if (!rest_scan_available(RestScan::Avx2)) return false;  // the same question, asked once there
+  if (width == ForcedRunWidth::Four) return true;
+  static const bool avx512 = has_avx512();
+  return avx512;
 #else
+  (void)width;
   return false;
 #endif
 }
 
-std::size_t advance_forced_run(ForcedRun& run, std::size_t begin, std::size_t end) {
+ForcedRunWidth best_forced_run() {
+  return forced_run_available(ForcedRunWidth::Eight) ? ForcedRunWidth::Eight : ForcedRunWidth::Four;
+}
+
+std::size_t advance_forced_run(ForcedRunWidth width, ForcedRun& run, std::size_t begin, std::size_t end) {
 #if defined(PALPA_FORCED_RUN_X86)
-  return run_avx2(run, begin, end);
+  return width == ForcedRunWidth::Eight ? run_avx512(run, begin, end) : run_avx2(run, begin, end);
 #else
+  (void)width;
   (void)run;
   (void)end;
   return begin;

@@ -2,10 +2,12 @@
 // The full step's sweep over runs of vertices in a field (with vertices at
 // rest among them), for a surface of one plain Linear material
 // (DeformableSurface::step_full): four vertices at a time with AVX2 where
-// the processor has it. Every result is the one the vertex-by-vertex sweep
+// the processor has it, and blocks of eight wholly in a field eight at a
+// time with AVX-512. Every result is the one the vertex-by-vertex sweep
 // gives, bit for bit: the same operations in the same order on each
-// vertex, and the same flags, dirty marks and list entries in index order. Internal to the deform
-// module (tested on its own); not part of its interface.
+// vertex, and the same flags, dirty marks and list entries in index order.
+// Internal to the deform module (tested on its own); not part of its
+// interface.
 
 #include "core/types.h"
 #include "deform/local_model.h"
@@ -32,12 +34,22 @@ struct ForcedRun {
   LinearStep step;             ///< the one material's step for dt
 };
 
-/// True when this processor runs the four-wide sweep (x86-64 with AVX2).
-bool forced_run_available();
+/// How many vertices the sweep takes at a time.
+enum class ForcedRunWidth : unsigned char {
+  Four = 0,   ///< AVX2
+  Eight = 1,  ///< AVX-512 (F, VL, BW, DQ) and BMI2, for blocks of eight all in a field; others four by four
+};
+
+/// True when this processor runs the sweep at `width` (x86-64 with AVX2;
+/// Eight also needs AVX-512 F, VL, BW, DQ and BMI2).
+bool forced_run_available(ForcedRunWidth width = ForcedRunWidth::Four);
+
+/// The widest width available; Four where none is (then the sweep never runs).
+ForcedRunWidth best_forced_run();
 
 /// Advances blocks of eight vertices from `begin` (a multiple of 8) up to
-/// `end` (a multiple of 8), four at a time. A vertex in a field (flag
-/// kForced) gets what DeformableSurface's vertex-by-vertex sweep gives it:
+/// `end` (a multiple of 8), `width` at a time, with the same results at
+/// either width. A vertex in a field (flag kForced) gets what DeformableSurface's vertex-by-vertex sweep gives it:
 /// the Linear step under its force, its stream height rewritten where it
 /// differs (with its dirty mark), its changed mark, and a place in the
 /// active set. A vertex outside every field must be out of the active set
@@ -45,8 +57,8 @@ bool forced_run_available();
 /// sweep leaves it. Stops, and returns where, at the first block with no
 /// vertex in a field (a multiple of 8) or at the first four with a vertex
 /// outside every field that is active or moving (a multiple of 4, those
-/// four untouched), or at `end`. forced_run_available() must be true. No
-/// allocation: the lists have room for every vertex.
-std::size_t advance_forced_run(ForcedRun& run, std::size_t begin, std::size_t end);
+/// four untouched), or at `end`. forced_run_available(width) must be true.
+/// No allocation: the lists have room for every vertex.
+std::size_t advance_forced_run(ForcedRunWidth width, ForcedRun& run, std::size_t begin, std::size_t end);
 
 }  // namespace palpa::deform::internal

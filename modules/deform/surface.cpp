@@ -78,8 +78,10 @@ bool at_rest(const VertexState& s) {
 
 // The widest rest-block skip this processor runs (step_full), chosen once.
 const internal::RestScan kRestScan = internal::best_rest_scan();
-// Whether step_full's runs of blocks in a field go four vertices at a time.
+// Whether step_full's runs of blocks in a field go four or eight vertices
+// at a time, and which.
 const bool kForcedRuns = internal::forced_run_available();
+const internal::ForcedRunWidth kForcedRunWidth = internal::best_forced_run();
 // State larger than this (bytes) is prefetched ahead of step_full's skip.
 constexpr std::size_t kPrefetchStateBytes = std::size_t{512} << 10;
 
@@ -903,7 +905,7 @@ void DeformableSurface::sweep_full(double dt) {
     if (forced_runs && (f & kForcedWord) != 0) {
       run.active_size = kept;
       run.changed_size = sweep.changed_size;
-      const std::size_t stop = internal::advance_forced_run(run, i, whole);
+      const std::size_t stop = internal::advance_forced_run(kForcedRunWidth, run, i, whole);
       kept = run.active_size;
       sweep.changed_size = run.changed_size;
       if (stop % internal::kRestBlock != 0) {

@@ -165,11 +165,26 @@ Arrays random_arrays(std::mt19937_64& rng, std::size_t count, int rest_every, in
   return a;
 }
 
-TEST(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
-  if (!forced_run_available()) {
-    GTEST_SKIP() << "this processor has no AVX2, so step_full goes vertex by vertex and the four-wide sweep "
-                    "never runs (the Surface tests cover that path)";
+// The widths this processor runs; the test says which it cannot.
+std::string width_name(ForcedRunWidth w) { return w == ForcedRunWidth::Eight ? "eight-wide" : "four-wide"; }
+
+class ForcedSweep : public ::testing::TestWithParam<ForcedRunWidth> {
+ protected:
+  void SetUp() override {
+    if (!forced_run_available(GetParam())) {
+      GTEST_SKIP() << "this processor cannot run the " << width_name(GetParam())
+                   << " sweep (four-wide needs AVX2; eight-wide also AVX-512 F, VL, BW, DQ and BMI2), so "
+                      "step_full never takes it here (the Surface tests cover the path it takes)";
+    }
   }
+};
+
+INSTANTIATE_TEST_SUITE_P(Widths, ForcedSweep, ::testing::Values(ForcedRunWidth::Four, ForcedRunWidth::Eight),
+                         [](const ::testing::TestParamInfo<ForcedRunWidth>& info) {
+                           return info.param == ForcedRunWidth::Eight ? std::string("Eight") : std::string("Four");
+                         });
+
+TEST_P(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
   LinearStep step;
   step.p00 = 0.93;
   step.p01 = 1.7e-3;
@@ -177,7 +192,8 @@ TEST(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
   step.p11 = 0.81;
   step.inv_k = 1.0 / 350.0;
   std::mt19937_64 rng(20261207);
-  int stops_at_gap = 0, stops_in_block = 0, partial_changes = 0, partial_fields = 0;
+  int stops_at_gap = 0, stops_in_block = 0, partial_changes = 0, partial_fields = 0, whole_blocks = 0,
+      whole_blocks_partly_changed = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const std::size_t count = 8 * static_cast<std::size_t>(1 + trial % 700);
     Arrays ours = random_arrays(rng, count, 3 + trial % 9, 20 + 400 * (trial % 4), 4 + trial % 60, step);
@@ -190,6 +206,15 @@ TEST(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
       partial_changes += marked > 0 && marked < 4;
       partial_fields += forced > 0 && forced < 4;
     }
+    for (std::size_t b = 0; b < count; b += 8) {
+      int marked = 0, forced = 0;
+      for (std::size_t k = b; k < b + 8; ++k) {
+        marked += (ours.flags[k] & kChanged) != 0;
+        forced += (ours.flags[k] & kForced) != 0;
+      }
+      whole_blocks += forced == 8;
+      whole_blocks_partly_changed += forced == 8 && marked > 0 && marked < 8;
+    }
     const bool all_dirty = trial % 5 == 4;
     ours.active_size = trial % 3;  // lists already holding earlier vertices
     ours.changed_size = trial % 2;
@@ -198,7 +223,7 @@ TEST(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
     ForcedRun run{ours.state.data(),  ours.force.data(),  ours.limit.data(),   ours.flags.data(),
                   ours.stream.data(), ours.dirty_blocks.data(), all_dirty,   ours.active.data(),
                   ours.active_size,   ours.changed.data(),      ours.changed_size, step};
-    const std::size_t stop = advance_forced_run(run, begin, count);
+    const std::size_t stop = advance_forced_run(GetParam(), run, begin, count);
     const std::size_t ref_stop = reference(ref, step, all_dirty, begin, count);
     const std::string where = "trial " + std::to_string(trial) + " (" + std::to_string(count) + " vertices from " +
                               std::to_string(begin) + ")";
@@ -218,12 +243,13 @@ TEST(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
   EXPECT_GT(stops_in_block, 20) << "runs should stop at the second four of a block";
   EXPECT_GT(partial_changes, 1000) << "fours with some vertices already changed should be common";
   EXPECT_GT(partial_fields, 1000) << "fours with vertices at rest beside vertices in a field should be common";
+  EXPECT_GT(whole_blocks, 1000) << "blocks wholly in a field (the eight-wide group) should be common";
+  EXPECT_GT(whole_blocks_partly_changed, 500) << "whole blocks with some vertices already changed should be common";
 }
 
 // A run that starts on four with an active vertex outside every field, or
 // on a block with no vertex in a field, does nothing.
-TEST(ForcedSweep, StopsAtOnceWhereItCannotGo) {
-  if (!forced_run_available()) GTEST_SKIP() << "this processor has no AVX2: the four-wide sweep never runs";
+TEST_P(ForcedSweep, StopsAtOnceWhereItCannotGo) {
   std::mt19937_64 rng(7);
   const LinearStep step{};
   for (const bool gap : {false, true}) {
@@ -234,7 +260,7 @@ TEST(ForcedSweep, StopsAtOnceWhereItCannotGo) {
     const Arrays before = a;
     ForcedRun run{a.state.data(),  a.force.data(), a.limit.data(), a.flags.data(), a.stream.data(),
                   a.dirty_blocks.data(), false, a.active.data(), 0, a.changed.data(), 0, step};
-    EXPECT_EQ(advance_forced_run(run, 8, 64), 8u) << (gap ? "no vertex in a field" : "an active vertex");
+    EXPECT_EQ(advance_forced_run(GetParam(), run, 8, 64), 8u) << (gap ? "no vertex in a field" : "an active vertex");
     EXPECT_EQ(run.active_size, 0u);
     EXPECT_EQ(run.changed_size, 0u);
     EXPECT_TRUE(same_bytes(a.state, before.state));
