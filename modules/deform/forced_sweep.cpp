@@ -218,10 +218,10 @@ __attribute__((target("avx2"))) std::size_t run_avx2(ForcedRun& caller, std::siz
 }
 
 // ---------------------------------------------------------------------------
-// Eight at a time (AVX-512 F, VL, BW, DQ and BMI2): a block whose eight
-// vertices are all in a field is one group of eight; any other block with a
-// vertex in a field goes four by four as above (advance_group), so the two
-// widths stop at the same places.
+// Eight at a time (AVX-512 F, VL, BW, DQ and BMI2): a block with a vertex
+// in a field, the others out of the active set and at rest, is one group of
+// eight; any other block with a vertex in a field goes four by four as
+// above (advance_group), so the two widths stop at the same places.
 #define PALPA_AVX512 "avx2,bmi,bmi2,popcnt,avx512f,avx512vl,avx512bw,avx512dq"
 
 // GCC 12's AVX-512 headers initialise their undefined lanes from themselves,
@@ -267,30 +267,62 @@ __attribute__((target(PALPA_AVX512))) inline Coefficients8 coefficients8(const L
   return k;
 }
 
-// The eight vertices of block i, all in a field (f their flags): what
-// advance_group gives the two fours, in one group.
-__attribute__((target(PALPA_AVX512))) inline void advance_block8(ForcedRun& r, std::size_t i, std::uint64_t f,
-                                                                 const Coefficients8& k) {
+// Each vertex's three doubles in a block's 24 (bits 3j, 3j + 1, 3j + 2 for
+// vertex j), from one bit per vertex.
+__attribute__((target(PALPA_AVX512))) inline std::uint32_t vertex_doubles(unsigned vertices) {
+  return _pdep_u32(vertices, 0x249249u) * 7u;
+}
+
+// The vertices of a block whose h, v and q are not all +0 or -0 (at_rest in
+// surface.cpp), one bit per vertex.
+__attribute__((target(PALPA_AVX512))) inline unsigned moving_vertices(__m512d a, __m512d b, __m512d c) {
+  const __m512i a1 = _mm512_slli_epi64(_mm512_castpd_si512(a), 1);
+  const __m512i b1 = _mm512_slli_epi64(_mm512_castpd_si512(b), 1);
+  const __m512i c1 = _mm512_slli_epi64(_mm512_castpd_si512(c), 1);
+  const std::uint32_t nonzero = static_cast<std::uint32_t>(_mm512_test_epi64_mask(a1, a1)) |
+                                static_cast<std::uint32_t>(_mm512_test_epi64_mask(b1, b1)) << 8 |
+                                static_cast<std::uint32_t>(_mm512_test_epi64_mask(c1, c1)) << 16;
+  return _pext_u32(nonzero | nonzero >> 1 | nonzero >> 2, 0x249249u);
+}
+
+// Block i (f its flags), with the vertices in a field in `lanes` (one bit
+// per vertex, not 0): what advance_group gives its two fours, in one group.
+// The others must be out of the active set and at rest; returns false,
+// touching nothing, when one is not (the four-by-four sweep takes the block
+// then, and stops where it must).
+__attribute__((target(PALPA_AVX512))) inline bool advance_block8(ForcedRun& r, std::size_t i, std::uint64_t f,
+                                                                 unsigned lanes, const Coefficients8& k) {
   double* s = reinterpret_cast<double*>(r.state + i);
   const __m512d a = _mm512_loadu_pd(s), b = _mm512_loadu_pd(s + 8), c = _mm512_loadu_pd(s + 16);
+  const bool whole = lanes == 0xffu;
+  std::uint32_t store = 0xffffffu;  // the doubles that may be stored
+  if (!whole) {
+    const unsigned others = ~lanes & 0xffu;
+    if ((_pext_u64(f, spread8(kActive)) & others) != 0 || (moving_vertices(a, b, c) & others) != 0) return false;
+    store = vertex_doubles(lanes);
+  }
   const __m512d h = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(a, k.h_ab, b), 0xc0, k.h_c, c);
   const __m512d v = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(a, k.v_ab, b), 0xe0, k.v_c, c);
 
-  // LinearStep::apply, lane by lane, in its order of operations.
+  // LinearStep::apply, lane by lane, in its order of operations (the lanes
+  // outside `lanes` are worked out too, and dropped).
   const __m512d hf = _mm512_mul_pd(_mm512_loadu_pd(r.force + i), k.inv_k);
   const __m512d dh = _mm512_sub_pd(h, hf);
   const __m512d h2 = _mm512_add_pd(_mm512_add_pd(hf, _mm512_mul_pd(k.p00, dh)), _mm512_mul_pd(k.p01, v));
   const __m512d v2 = _mm512_add_pd(_mm512_mul_pd(k.p10, dh), _mm512_mul_pd(k.p11, v));
 
-  // Back in h v q order, each double stored only where its bits change: a
-  // vertex held at its equilibrium (v exactly 0, h exactly f / k) leaves its
-  // cache lines clean.
+  // Back in h v q order, each double of a vertex in `lanes` stored only
+  // where its bits change: a vertex held at its equilibrium (v exactly 0,
+  // h exactly f / k) leaves its cache lines clean.
   const __m512d a2 = _mm512_mask_blend_pd(0xdb, a, _mm512_permutex2var_pd(h2, k.a_hv, v2));
   const __m512d b2 = _mm512_mask_blend_pd(0xb6, b, _mm512_permutex2var_pd(h2, k.b_hv, v2));
   const __m512d c2 = _mm512_mask_blend_pd(0x6d, c, _mm512_permutex2var_pd(h2, k.c_hv, v2));
-  _mm512_mask_storeu_pd(s, _mm512_cmpneq_epi64_mask(_mm512_castpd_si512(a2), _mm512_castpd_si512(a)), a2);
-  _mm512_mask_storeu_pd(s + 8, _mm512_cmpneq_epi64_mask(_mm512_castpd_si512(b2), _mm512_castpd_si512(b)), b2);
-  _mm512_mask_storeu_pd(s + 16, _mm512_cmpneq_epi64_mask(_mm512_castpd_si512(c2), _mm512_castpd_si512(c)), c2);
+  _mm512_mask_storeu_pd(s, _mm512_mask_cmpneq_epi64_mask(static_cast<__mmask8>(store), _mm512_castpd_si512(a2),
+                                                         _mm512_castpd_si512(a)), a2);
+  _mm512_mask_storeu_pd(s + 8, _mm512_mask_cmpneq_epi64_mask(static_cast<__mmask8>(store >> 8),
+                                                             _mm512_castpd_si512(b2), _mm512_castpd_si512(b)), b2);
+  _mm512_mask_storeu_pd(s + 16, _mm512_mask_cmpneq_epi64_mask(static_cast<__mmask8>(store >> 16),
+                                                              _mm512_castpd_si512(c2), _mm512_castpd_si512(c)), c2);
 
   // The drawn height, as advance_group.
   const __m512d limit = _mm512_loadu_pd(r.limit + i);
@@ -302,7 +334,8 @@ __attribute__((target(PALPA_AVX512))) inline void advance_block8(ForcedRun& r, s
   const __m256 d = _mm512_cvtpd_ps(drawn);
   float* out = r.stream + 4 * i;
   const __m512 old = _mm512_permutex2var_ps(_mm512_loadu_ps(out), k.heights, _mm512_loadu_ps(out + 16));
-  const unsigned differs = _mm256_cmp_ps_mask(_mm512_castps512_ps256(old), d, _CMP_NEQ_UQ);
+  const unsigned differs = _mm256_mask_cmp_ps_mask(static_cast<__mmask8>(lanes), _mm512_castps512_ps256(old), d,
+                                                   _CMP_NEQ_UQ);
   if (differs != 0) {
     const __m512 wide = _mm512_castps256_ps512(d);
     _mm512_mask_storeu_ps(out, static_cast<__mmask16>(_pdep_u32(differs & 0xfu, 0x8888u)),
@@ -311,7 +344,7 @@ __attribute__((target(PALPA_AVX512))) inline void advance_block8(ForcedRun& r, s
                           _mm512_permutexvar_ps(k.spread_hi, wide));
   }
 
-  // Flags and lists, as advance_group gives the two fours.
+  // Flags and lists, as advance_group gives the two fours (in index order).
   if (!r.all_dirty) {
     const std::uint64_t dirty = _pdep_u64(differs, spread8(kDirty)) & ~f;
     if (dirty != 0) {
@@ -319,21 +352,28 @@ __attribute__((target(PALPA_AVX512))) inline void advance_block8(ForcedRun& r, s
       mark_block(r.dirty_blocks, static_cast<Index>(i));
     }
   }
-  const std::uint64_t fresh = spread8(kChanged) & ~f;
+  const std::uint64_t in_lanes = whole ? ~std::uint64_t{0} : _pdep_u64(lanes, spread8(1)) * 0xffu;
+  const std::uint64_t fresh = spread8(kChanged) & ~f & in_lanes;
   const __m256i indices =
       _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(i)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
   if (fresh == spread8(kChanged)) {
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.changed + r.changed_size), indices);
     r.changed_size += 8;
   } else if (fresh != 0) {
-    const unsigned lanes = static_cast<unsigned>(_pext_u64(fresh, spread8(kChanged)));
-    _mm256_mask_compressstoreu_epi32(r.changed + r.changed_size, static_cast<__mmask8>(lanes), indices);
-    r.changed_size += static_cast<std::size_t>(std::popcount(lanes));
+    const unsigned fresh_lanes = static_cast<unsigned>(_pext_u64(fresh, spread8(kChanged)));
+    _mm256_mask_compressstoreu_epi32(r.changed + r.changed_size, static_cast<__mmask8>(fresh_lanes), indices);
+    r.changed_size += static_cast<std::size_t>(std::popcount(fresh_lanes));
   }
-  f |= fresh | spread8(kActive);
+  f |= fresh | (spread8(kActive) & in_lanes);
   std::memcpy(r.flags + i, &f, sizeof f);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.active + r.active_size), indices);
-  r.active_size += 8;
+  if (whole) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(r.active + r.active_size), indices);
+    r.active_size += 8;
+  } else {
+    _mm256_mask_compressstoreu_epi32(r.active + r.active_size, static_cast<__mmask8>(lanes), indices);
+    r.active_size += static_cast<std::size_t>(std::popcount(lanes));
+  }
+  return true;
 }
 
 __attribute__((target(PALPA_AVX512))) inline std::size_t run_on8(ForcedRun& r, std::size_t i, std::size_t end) {
@@ -343,11 +383,9 @@ __attribute__((target(PALPA_AVX512))) inline std::size_t run_on8(ForcedRun& r, s
     std::uint64_t f8;
     std::memcpy(&f8, r.flags + i, sizeof f8);
     const std::uint64_t forced = f8 & kForcedWord;
-    if (forced == kForcedWord) {
-      advance_block8(r, i, f8, k8);
-      continue;
-    }
     if (forced == 0) break;  // no vertex in a field: the caller's skip
+    const unsigned lanes = forced == kForcedWord ? 0xffu : static_cast<unsigned>(_pext_u64(forced, kForcedWord));
+    if (advance_block8(r, i, f8, lanes, k8)) continue;
     const std::size_t next = advance_fours(r, i, k);
     if (next != i + 8) return next;
   }

@@ -134,8 +134,11 @@ Arrays random_arrays(std::mt19937_64& rng, std::size_t count, int rest_every, in
       // (An active one at rest leaves the active set in this step.)
       f &= static_cast<std::uint8_t>(~kForced);
       if (pick(rng) < 8) {
+        // Inactive, and moving in h, v or q alone (the others zero).
         f &= static_cast<std::uint8_t>(~kActive);
-        a.state[i].v = 0.25;
+        a.state[i] = {signed_zero(), signed_zero(), signed_zero()};
+        const int which = pick(rng) % 3;
+        (which == 0 ? a.state[i].h : (which == 1 ? a.state[i].v : a.state[i].q)) = 0.25;
       } else if (pick(rng) < 8) {
         a.state[i] = {signed_zero(), signed_zero(), signed_zero()};
       }
@@ -193,7 +196,7 @@ TEST_P(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
   step.inv_k = 1.0 / 350.0;
   std::mt19937_64 rng(20261207);
   int stops_at_gap = 0, stops_in_block = 0, partial_changes = 0, partial_fields = 0, whole_blocks = 0,
-      whole_blocks_partly_changed = 0;
+      whole_blocks_partly_changed = 0, blocks_beside_rest = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const std::size_t count = 8 * static_cast<std::size_t>(1 + trial % 700);
     Arrays ours = random_arrays(rng, count, 3 + trial % 9, 20 + 400 * (trial % 4), 4 + trial % 60, step);
@@ -214,6 +217,11 @@ TEST_P(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
       }
       whole_blocks += forced == 8;
       whole_blocks_partly_changed += forced == 8 && marked > 0 && marked < 8;
+      bool others_rest = true;
+      for (std::size_t k = b; k < b + 8; ++k) {
+        if (!(ours.flags[k] & kForced) && ((ours.flags[k] & kActive) || !at_rest(ours.state[k]))) others_rest = false;
+      }
+      blocks_beside_rest += forced > 0 && forced < 8 && others_rest;
     }
     const bool all_dirty = trial % 5 == 4;
     ours.active_size = trial % 3;  // lists already holding earlier vertices
@@ -245,6 +253,8 @@ TEST_P(ForcedSweep, EqualsTheVertexByVertexSweepBitForBit) {
   EXPECT_GT(partial_fields, 1000) << "fours with vertices at rest beside vertices in a field should be common";
   EXPECT_GT(whole_blocks, 1000) << "blocks wholly in a field (the eight-wide group) should be common";
   EXPECT_GT(whole_blocks_partly_changed, 500) << "whole blocks with some vertices already changed should be common";
+  EXPECT_GT(blocks_beside_rest, 1000) << "blocks with vertices at rest beside vertices in a field (the eight-wide "
+                                         "group too) should be common";
 }
 
 // A run that starts on four with an active vertex outside every field, or
