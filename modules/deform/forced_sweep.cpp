@@ -257,7 +257,7 @@ __attribute__((target(PALPA_AVX512))) inline Coefficients8 coefficients8(const L
   k.v_ab = _mm512_setr_epi64(1, 4, 7, 10, 13, 0, 0, 0);  // v0..v4 from (a, b)
   k.v_c = _mm512_setr_epi64(0, 0, 0, 0, 0, /* v5: */ 0, 3, 6);  // v5, v6, v7 from c
   // Back, from (h, v): a = h0 v0 q0 h1 v1 q1 h2 v2, b = q2 h3 v3 q3 h4 v4 q4 h5,
-  // c = v5 q5 h6 v6 q6 h7 v7 q7 (the q lanes are kept from the loads).
+  // c = v5 q5 h6 v6 q6 h7 v7 q7 (the q lanes are never stored).
   k.a_hv = _mm512_setr_epi64(0, 8, 0, 1, 9, 0, 2, 10);
   k.b_hv = _mm512_setr_epi64(0, 3, 11, 0, 4, 12, 0, 5);
   k.c_hv = _mm512_setr_epi64(13, 0, 6, 14, 0, 7, 15, 0);
@@ -267,10 +267,10 @@ __attribute__((target(PALPA_AVX512))) inline Coefficients8 coefficients8(const L
   return k;
 }
 
-// Each vertex's three doubles in a block's 24 (bits 3j, 3j + 1, 3j + 2 for
+// Each vertex's h and v among a block's 24 doubles (bits 3j and 3j + 1 for
 // vertex j), from one bit per vertex.
-__attribute__((target(PALPA_AVX512))) inline std::uint32_t vertex_doubles(unsigned vertices) {
-  return _pdep_u32(vertices, 0x249249u) * 7u;
+__attribute__((target(PALPA_AVX512))) inline std::uint32_t vertex_hv(unsigned vertices) {
+  return _pdep_u32(vertices, 0x249249u) * 3u;
 }
 
 // The vertices of a block whose h, v and q are not all +0 or -0 (at_rest in
@@ -295,11 +295,11 @@ __attribute__((target(PALPA_AVX512))) inline bool advance_block8(ForcedRun& r, s
   double* s = reinterpret_cast<double*>(r.state + i);
   const __m512d a = _mm512_loadu_pd(s), b = _mm512_loadu_pd(s + 8), c = _mm512_loadu_pd(s + 16);
   const bool whole = lanes == 0xffu;
-  std::uint32_t store = 0xffffffu;  // the doubles that may be stored
+  std::uint32_t store = 0x6db6dbu;  // the doubles that may be stored: h and v of the vertices in `lanes`
   if (!whole) {
     const unsigned others = ~lanes & 0xffu;
     if ((_pext_u64(f, spread8(kActive)) & others) != 0 || (moving_vertices(a, b, c) & others) != 0) return false;
-    store = vertex_doubles(lanes);
+    store = vertex_hv(lanes);
   }
   const __m512d h = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(a, k.h_ab, b), 0xc0, k.h_c, c);
   const __m512d v = _mm512_mask_permutexvar_pd(_mm512_permutex2var_pd(a, k.v_ab, b), 0xe0, k.v_c, c);
@@ -311,12 +311,13 @@ __attribute__((target(PALPA_AVX512))) inline bool advance_block8(ForcedRun& r, s
   const __m512d h2 = _mm512_add_pd(_mm512_add_pd(hf, _mm512_mul_pd(k.p00, dh)), _mm512_mul_pd(k.p01, v));
   const __m512d v2 = _mm512_add_pd(_mm512_mul_pd(k.p10, dh), _mm512_mul_pd(k.p11, v));
 
-  // Back in h v q order, each double of a vertex in `lanes` stored only
-  // where its bits change: a vertex held at its equilibrium (v exactly 0,
-  // h exactly f / k) leaves its cache lines clean.
-  const __m512d a2 = _mm512_mask_blend_pd(0xdb, a, _mm512_permutex2var_pd(h2, k.a_hv, v2));
-  const __m512d b2 = _mm512_mask_blend_pd(0xb6, b, _mm512_permutex2var_pd(h2, k.b_hv, v2));
-  const __m512d c2 = _mm512_mask_blend_pd(0x6d, c, _mm512_permutex2var_pd(h2, k.c_hv, v2));
+  // Back in h v q order (the q lanes hold nothing: q is not stored), each h
+  // and v of a vertex in `lanes` stored only where its bits change: a vertex
+  // held at its equilibrium (v exactly 0, h exactly f / k) leaves its cache
+  // lines clean.
+  const __m512d a2 = _mm512_permutex2var_pd(h2, k.a_hv, v2);
+  const __m512d b2 = _mm512_permutex2var_pd(h2, k.b_hv, v2);
+  const __m512d c2 = _mm512_permutex2var_pd(h2, k.c_hv, v2);
   _mm512_mask_storeu_pd(s, _mm512_mask_cmpneq_epi64_mask(static_cast<__mmask8>(store), _mm512_castpd_si512(a2),
                                                          _mm512_castpd_si512(a)), a2);
   _mm512_mask_storeu_pd(s + 8, _mm512_mask_cmpneq_epi64_mask(static_cast<__mmask8>(store >> 8),
