@@ -1,5 +1,7 @@
 #include "haptics/loop_core.h"
 
+#include "core/subnormals.h"
+
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
@@ -318,6 +320,10 @@ void LoopCore::apply(const LoopCommand& c, double t) noexcept {
 bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
                     std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
                     ContactSet& contacts) noexcept {
+  // Subnormal values as zero (core/subnormals.h): a probe held still has
+  // its filtered velocity decay into the subnormal range about 2.6 s later
+  // and stay there, where every tick took twice as long.
+  const SubnormalsAsZero flush;
   const std::size_t n = std::min({probe_count(), inputs.size(), results.size()});
   const double period = config_.period();
 
@@ -504,6 +510,7 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
 // then (rehearse_corners) a crossing past each probe's nearest corner on
 // those copies: same reads, nothing kept.
 void LoopCore::warm_caches(const deform::DeformableSurface& surface, bool rehearse_corners) noexcept {
+  const SubnormalsAsZero flush;  // as tick(), which it rehearses
   const std::size_t dense = last_dense_;
   for (std::size_t d = 0; d < dense; ++d) set_warm_up_memory(state_.memory[slot_of_[d]], warm_memory_[d]);
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),

@@ -15,6 +15,10 @@
 #include <vector>
 #include <memory>
 
+#if defined(__x86_64__)
+#include <xmmintrin.h>
+#endif
+
 namespace palpa::haptics {
 namespace {
 
@@ -141,6 +145,37 @@ TEST_F(LoopCoreTest, FrictionOpposesSlidingWithCoefficientK) {
   EXPECT_NEAR(r.velocity[0], 0.05, 1e-6);
   EXPECT_NEAR(r.force_device[2], 2.0, 1e-6);
   EXPECT_NEAR(r.force_device[0], -config_.force.friction * 2.0, 1e-6);
+}
+
+// A probe that slides, then is held still (a device whose encoders read the
+// same position tick after tick): its filtered velocity decays towards zero
+// geometrically. The tick takes subnormal values as zero, so neither the
+// velocity nor the force ever holds one (the velocity stops just above the
+// range, where a (0 - v) is flushed). Before, it entered the range about
+// 2.6 s in and stayed there (a v rounded to zero, so v += a (0 - v)
+// stopped changing it), and every later tick took a microcode assist at
+// each use and twice as long. The caller's floating-point mode is left as
+// it was.
+TEST_F(LoopCoreTest, AHeldProbesVelocityNeverTurnsSubnormal) {
+  auto core = make({setup()});
+  for (int i = 0; i < 200; ++i) tick(*core, Vec3(-0.005 + 5e-5 * i, 0.0, -0.001));  // 5 cm/s, 1 mm deep
+  const Vec3 held(0.005, 0.0, -0.001);
+#if defined(__x86_64__)
+  const unsigned mode = _mm_getcsr();
+#endif
+  for (int i = 0; i < 4000; ++i) {
+    const ProbeTickResult r = tick(*core, held);
+#if defined(__x86_64__)
+    ASSERT_EQ(_mm_getcsr(), mode) << "tick " << i << " left the caller's floating-point mode changed";
+#endif
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_NE(std::fpclassify(r.velocity[k]), FP_SUBNORMAL) << "velocity " << k << " at tick " << i;
+      ASSERT_NE(std::fpclassify(r.force_world[k]), FP_SUBNORMAL) << "force " << k << " at tick " << i;
+    }
+  }
+  const ProbeTickResult r = tick(*core, held);
+  EXPECT_LT(std::abs(r.velocity[0]) + std::abs(r.velocity[1]) + std::abs(r.velocity[2]), 1e-300);
+  EXPECT_TRUE(r.in_contact) << "the probe should still press the surface";
 }
 
 TEST_F(LoopCoreTest, ClutchButtonHoldsTheProbeAndWithholdsForce) {
