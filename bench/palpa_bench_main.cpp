@@ -76,6 +76,8 @@ constexpr double kTargetFlatness = 2.0;        // tick p99 of the fan and sliver
 constexpr double kTargetQuerySpeedup = 3.0;    // cgal_hint / local at p50 and p99
 constexpr double kTargetCopyFraction = 0.5;    // step_full vs memcpy
 constexpr int kHeldSteps = 600;                // active steps with the contacts held still (1.2 s at 2 ms)
+constexpr std::size_t kHeldFrom = 500;         // ticks of the paths before the probes are held still
+constexpr std::size_t kHeldTicks = 3500;       // ticks with the probes held still (3.5 s)
 
 // ---------------------------------------------------------------------------
 // Command line.
@@ -629,6 +631,30 @@ class InterleavedTicks {
       }
       if (k % kDirtyEvery == 0) (void)surface.take_dirty_ranges();
     }
+  }
+
+  // After ticks [0, at) of paths (run()), the probes held still at their
+  // points of tick at - 1 for `ticks` more ticks, with the steps between
+  // them as in run(); returns each tick's duration (ns). The device reads
+  // the same position every tick, so the filtered velocity decays
+  // geometrically towards zero.
+  std::vector<double> hold(const bench::ProbePaths& paths, std::size_t at, std::size_t ticks) {
+    std::vector<double> ns;
+    ns.reserve(ticks);
+    const std::size_t last = at - 1;
+    for (std::size_t j = 0; j < ticks; ++j) {
+      const std::size_t k = at + j;
+      const double t = static_cast<double>(k) * kTickPeriod;
+      for (int p = 0; p < probes_; ++p) inputs_[p].sample = haptics::position_sample(paths.at(last, p), k + 1, t);
+      const auto a = Clock::now();
+      const bool due = session.tick(t, std::span<const haptics::ProbeTickInput>(inputs_.data(), probes_),
+                                    std::span<haptics::ProbeTickResult>(results_.data(), probes_));
+      ns.push_back(elapsed_ns(a, Clock::now()));
+      stepped_ = due;
+      if (due) session.deform(session.core().request());
+      if (k % kDirtyEvery == 0) (void)session.surface().take_dirty_ranges();
+    }
+    return ns;
   }
 
   haptics::Session session;
@@ -1339,6 +1365,35 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       r["proxy_first_walk_ended"] = walk_end_counts_json(t.proxy_walk_ends);
       r["proxy_first_walk_triangles_mean"] = t.proxy_walk_triangles;
       r["proxy_first_walk_triangles_slowest_tenth"] = t.proxy_walk_triangles_slowest_tenth;
+      res.records.push_back(r);
+    }
+    {
+      // The probes held still after the first kHeldFrom ticks of their
+      // paths, in a session of their own with the loop's default velocity
+      // filter (the run above filters at 10 kHz, which lets the velocity
+      // reach zero at once): the velocity filtered towards zero entered the
+      // subnormal range about 2.6 s in and stayed there before the tick
+      // took subnormal values as zero. The two windows are before and after
+      // that time.
+      auto held_model = std::make_shared<haptics::SessionModel>(*model);
+      held_model->config.velocity_cutoff_hz = haptics::CoreConfig{}.velocity_cutoff_hz;
+      InterleavedTicks still(held_model, V, probes, false);
+      still.run(paths, 0, kHeldFrom, kHeldFrom);
+      std::vector<double> held = still.hold(paths, kHeldFrom, kHeldTicks);
+      std::vector<double> early(held.begin() + 1500, held.begin() + 2000), late(held.end() - 500, held.end());
+      const Latency e = bench::latency_of(early), l = bench::latency_of(late);
+      std::printf("[%s] %d probe%s: ticks with the probes held still (velocity filter %.0f Hz), 1.5 to 2.0 s: p50 %.3f "
+                  "p99 %.3f us; %.1f to %.1f s: p50 %.3f p99 %.3f us\n",
+                  mc.name.c_str(), probes, probes > 1 ? "s" : "", held_model->config.velocity_cutoff_hz, e.p50_us,
+                  e.p99_us, (kHeldTicks - 500) * 1e-3,
+                  kHeldTicks * 1e-3, l.p50_us, l.p99_us);
+      json r = base;
+      r["suite"] = "tick_held";
+      r["probes"] = probes;
+      r["early"] = latency_json(e);
+      r["late"] = latency_json(l);
+      r["held_ticks"] = kHeldTicks;
+      r["velocity_cutoff_hz"] = held_model->config.velocity_cutoff_hz;
       res.records.push_back(r);
     }
     std::fflush(stdout);
