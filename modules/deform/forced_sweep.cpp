@@ -1,8 +1,8 @@
 // The full step's sweep over vertices in a field, and vertices at rest
 // among them (see forced_sweep.h). Only x86-64 with AVX2 runs it;
 // elsewhere step_full goes vertex by vertex. Vertices are handled in
-// groups of four, or with AVX-512 blocks of eight wholly in a field in
-// groups of eight, whose states (h, v, q) are transposed in registers: the
+// groups of four, or with AVX-512 in blocks of eight (those outside a field
+// at rest), whose states (h, v, q) are transposed in registers: the
 // arithmetic is the scalar step's, lane by lane, with no fused
 // multiply-add (the module builds with -ffp-contract=off, and the
 // intrinsics used here are separate multiplications and additions).

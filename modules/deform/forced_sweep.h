@@ -2,10 +2,11 @@
 // The full step's sweep over runs of vertices in a field (with vertices at
 // rest among them), for a surface of one plain Linear material
 // (DeformableSurface::step_full): four vertices at a time with AVX2 where
-// the processor has it, and blocks of eight wholly in a field eight at a
-// time with AVX-512. Every result is the one the vertex-by-vertex sweep
-// gives, bit for bit: the same operations in the same order on each
-// vertex, and the same flags, dirty marks and list entries in index order.
+// the processor has it, and blocks of eight (those outside a field at
+// rest) eight at a time with AVX-512. Every result is the one the
+// vertex-by-vertex sweep gives, bit for bit: the same operations in the
+// same order on each vertex, and the same flags, dirty marks and list
+// entries in index order.
 // Internal to the deform module (tested on its own); not part of its
 // interface.
 
@@ -37,7 +38,8 @@ struct ForcedRun {
 /// How many vertices the sweep takes at a time.
 enum class ForcedRunWidth : unsigned char {
   Four = 0,   ///< AVX2
-  Eight = 1,  ///< AVX-512 (F, VL, BW, DQ) and BMI2, for blocks of eight all in a field; others four by four
+  Eight = 1,  ///< AVX-512 (F, VL, BW, DQ) and BMI2, for blocks whose vertices outside a field are at rest and
+              ///< out of the active set; other blocks four by four
 };
 
 /// True when this processor runs the sweep at `width` (x86-64 with AVX2;
