@@ -184,7 +184,9 @@ class DeformableSurface {
   /// contact j drives vertex i (undeformed distance r from the contact point)
   /// with the force that holds it at height -depth_j S_j(r). A dt that is not
   /// positive and finite does nothing. Allocates nothing once its buffers
-  /// have grown to the largest field seen.
+  /// have grown to the largest field seen. Runs with subnormal values taken
+  /// as zero (core/subnormals.h), as step_full() does; the caller's
+  /// floating-point mode is restored.
   void step(double dt);
   /// Advances every vertex (reference and benchmark path). Same physics and
   /// same results as step(): vertices outside the active set are at rest.

@@ -346,7 +346,9 @@ class LoopCore {
   /// published at model_time, s). `inputs` and `results` hold probe_count()
   /// entries (a free slot's input is ignored, its result cleared);
   /// `contacts` receives the contacts for the deformation model. Returns
-  /// true when this tick asks for a deformation step (see request()).
+  /// true when this tick asks for a deformation step (see request()). Runs
+  /// with subnormal values taken as zero (core/subnormals.h); the caller's
+  /// floating-point mode is restored.
   bool tick(std::uint64_t tick, double t, const deform::DeformableSurface& surface, double model_time,
             std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
             ContactSet& contacts) noexcept;
