@@ -193,7 +193,7 @@ __attribute__((target("avx2"))) inline std::size_t advance_fours(ForcedRun& r, s
   return i + 8;
 }
 
-constexpr std::uint64_t kForcedWord = 0x0101010101010101ull * kForced;
+constexpr std::uint64_t kForcedWord = spread8(kForced);
 
 __attribute__((target("avx2"))) inline std::size_t run_on(ForcedRun& r, std::size_t i, std::size_t end) {
   const Coefficients k = coefficients(r.step);
@@ -229,9 +229,6 @@ __attribute__((target("avx2"))) std::size_t run_avx2(ForcedRun& caller, std::siz
 // headers silence it themselves).
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-
-constexpr std::uint64_t spread8(std::uint8_t bits) { return 0x0101010101010101ull * bits; }
-static_assert(spread8(kForced) == kForcedWord);
 
 // The step's coefficients and the permutations of a block's states.
 struct Coefficients8 {

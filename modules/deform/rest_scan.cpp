@@ -4,6 +4,8 @@
 
 #include "deform/rest_scan.h"
 
+#include "deform/vertex_flags.h"
+
 #include <cstring>
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -18,7 +20,6 @@ namespace {
 static_assert(sizeof(VertexState) == 24, "a block's state is 192 bytes: 12 x 16 or 6 x 32");
 constexpr std::size_t kAhead = 256;  // vertices (6 KB of state) the prefetch runs ahead
 
-inline std::uint64_t spread(std::uint8_t mask) { return 0x0101010101010101ull * mask; }
 
 inline void prefetch_block(const VertexState* state, std::size_t i, std::size_t end) {
   if (i + kAhead + kRestBlock > end) return;
@@ -30,7 +31,7 @@ inline void prefetch_block(const VertexState* state, std::size_t i, std::size_t 
 
 std::size_t skip_portable(const std::uint8_t* flags, std::uint8_t moving_flags, const VertexState* state,
                           std::size_t i, std::size_t end, bool prefetch) {
-  const std::uint64_t mask = spread(moving_flags);
+  const std::uint64_t mask = spread8(moving_flags);
   for (; i < end; i += kRestBlock) {
     if (prefetch) prefetch_block(state, i, end);
     std::uint64_t f;
@@ -68,7 +69,7 @@ __attribute__((target("avx2"))) inline __m256i or_block(const VertexState* state
 __attribute__((target("avx2"))) std::size_t skip_avx2(const std::uint8_t* flags, std::uint8_t moving_flags,
                                                        const VertexState* state, std::size_t i, std::size_t end,
                                                        bool prefetch) {
-  const std::uint64_t mask = spread(moving_flags);
+  const std::uint64_t mask = spread8(moving_flags);
   // Two blocks per test; where the pair is not at rest, the first is tested
   // alone to say which.
   for (; i + 2 * kRestBlock <= end; i += 2 * kRestBlock) {

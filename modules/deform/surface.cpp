@@ -854,13 +854,13 @@ void DeformableSurface::sweep_full(double dt) {
   // than the caches: the hardware prefetcher alone does not keep the read
   // at memory bandwidth there.
   const bool prefetch = count * sizeof(VertexState) > kPrefetchStateBytes;
-  constexpr std::uint64_t kMovingWord = 0x0101010101010101ull * (kForced | kActive);
+  constexpr std::uint64_t kMovingWord = internal::spread8(kForced | kActive);
   const std::size_t whole = count - count % internal::kRestBlock;
   // One plain Linear material: runs of blocks with vertices in a field, the
   // others at rest, go four vertices at a time where the processor can
   // (internal::advance_forced_run, the same bits and marks as vertex by
   // vertex).
-  constexpr std::uint64_t kForcedWord = 0x0101010101010101ull * kForced;
+  constexpr std::uint64_t kForcedWord = internal::spread8(kForced);
   const bool forced_runs = kPlain && kForcedRuns;
   internal::ForcedRun run{sweep.state,     sweep.force, sweep.limit, sweep.flags,   sweep.stream, sweep.dirty_blocks,
                           sweep.all_dirty, active,      0,           sweep.changed, 0,            sweep.plain};
@@ -1112,7 +1112,7 @@ std::vector<IndexRange> DeformableSurface::take_dirty_ranges() {
   all_dirty_ = false;
   std::uint8_t* flags = flags_.data();
   // kDirty in each byte of a word of eight flags (byte k is vertex i + k).
-  constexpr std::uint64_t kDirtyBytes = 0x0101010101010101ull * kDirty;
+  constexpr std::uint64_t kDirtyBytes = internal::spread8(kDirty);
   static_assert(std::endian::native == std::endian::little, "take_dirty_ranges reads eight flags as one word");
   // Vertices [b, e) join the ranges (they come in index order).
   auto add = [&ranges](Index b, Index e) {
