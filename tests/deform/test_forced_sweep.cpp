@@ -1,5 +1,5 @@
-// The full step's four-wide sweep over vertices in a field
-// (deform/forced_sweep.h), against a vertex-by-vertex reference written
+// The full step's sweep over vertices in a field (deform/forced_sweep.h),
+// at each width the processor runs, against a vertex-by-vertex reference written
 // here from what the header promises: the Linear step in its order of
 // operations, the drawn height clamped to the limit, the stream's height
 // rewritten (and marked dirty) only where it differs, the changed and
