@@ -78,6 +78,9 @@ constexpr double kTargetCopyFraction = 0.5;    // step_full vs memcpy
 constexpr int kHeldSteps = 600;                // active steps with the contacts held still (1.2 s at 2 ms)
 constexpr std::size_t kHeldFrom = 500;         // ticks of the paths before the probes are held still
 constexpr std::size_t kHeldTicks = 3500;       // ticks with the probes held still (3.5 s)
+constexpr std::size_t kHeldEarly = 1500;       // the held ticks' first window starts here (1.5 s) ...
+constexpr std::size_t kHeldWindow = 500;       // ... and each window, the last ending at kHeldTicks, is this long
+static_assert(kHeldEarly + kHeldWindow <= kHeldTicks - kHeldWindow, "the two windows of held ticks overlap");
 
 // ---------------------------------------------------------------------------
 // Command line.
@@ -1380,13 +1383,15 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
       InterleavedTicks still(held_model, V, probes, false);
       still.run(paths, 0, kHeldFrom, kHeldFrom);
       std::vector<double> held = still.hold(paths, kHeldFrom, kHeldTicks);
-      std::vector<double> early(held.begin() + 1500, held.begin() + 2000), late(held.end() - 500, held.end());
+      const auto from = [&held](std::size_t tick) { return held.begin() + static_cast<std::ptrdiff_t>(tick); };
+      std::vector<double> early(from(kHeldEarly), from(kHeldEarly + kHeldWindow));
+      std::vector<double> late(from(kHeldTicks - kHeldWindow), held.end());
       const Latency e = bench::latency_of(early), l = bench::latency_of(late);
-      std::printf("[%s] %d probe%s: ticks with the probes held still (velocity filter %.0f Hz), 1.5 to 2.0 s: p50 %.3f "
-                  "p99 %.3f us; %.1f to %.1f s: p50 %.3f p99 %.3f us\n",
-                  mc.name.c_str(), probes, probes > 1 ? "s" : "", held_model->config.velocity_cutoff_hz, e.p50_us,
-                  e.p99_us, (kHeldTicks - 500) * 1e-3,
-                  kHeldTicks * 1e-3, l.p50_us, l.p99_us);
+      std::printf("[%s] %d probe%s: ticks with the probes held still (velocity filter %.0f Hz), %.1f to %.1f s: "
+                  "p50 %.3f p99 %.3f us; %.1f to %.1f s: p50 %.3f p99 %.3f us\n",
+                  mc.name.c_str(), probes, probes > 1 ? "s" : "", held_model->config.velocity_cutoff_hz,
+                  kHeldEarly * kTickPeriod, (kHeldEarly + kHeldWindow) * kTickPeriod, e.p50_us, e.p99_us,
+                  (kHeldTicks - kHeldWindow) * kTickPeriod, kHeldTicks * kTickPeriod, l.p50_us, l.p99_us);
       json r = base;
       r["suite"] = "tick_held";
       r["probes"] = probes;
