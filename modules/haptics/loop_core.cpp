@@ -411,8 +411,9 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
   }
   last_dense_ = dense;
   last_tissue_ = tissue != nullptr;
+  ProbeMemory* const memory = rehearsing_ ? warm_memory_.data() : state_.memory.data();
   haptic_tick(surface, tree_, std::span<const ProbeInput>(probe_inputs_.data(), dense),
-              std::span<ProbeMemory>(state_.memory.data(), packed ? dense : state_.memory.size()),
+              std::span<ProbeMemory>(memory, packed ? dense : state_.memory.size()),
               std::span<ProbeOutput>(probe_outputs_.data(), dense), state_.force, state_.shape, tissue,
               packed ? std::span<const std::uint8_t>() : std::span<const std::uint8_t>(slot_of_.data(), dense));
 
@@ -504,6 +505,53 @@ bool LoopCore::tick(std::uint64_t tick, double t, const deform::DeformableSurfac
     state_.pending = DeformEdits{};
   }
   return due;
+}
+
+// tick() once more, on the copies of the memories; what it writes put back.
+// Not the probes' memories (it reads copies in warm_memory_, by slot) nor
+// probe_outputs_ (only tick() reads them, after writing them).
+void LoopCore::rehearse_tick(const deform::DeformableSurface& surface, std::span<const ProbeTickInput> inputs,
+                             std::span<ProbeTickResult> results) noexcept {
+  if (last_dense_ == 0 || !state_.have_last_tick) return;
+  const std::size_t n = std::min({probe_count(), inputs.size(), results.size()});
+  Rehearsal& k = rehearsal_;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!state_.probes[i].active) continue;
+    k.probes[i] = state_.probes[i];
+    set_warm_up_memory(state_.memory[i], warm_memory_[i]);
+  }
+  k.last_tick_time = state_.last_tick_time;
+  k.deform_phase = state_.deform_phase;
+  k.generations = state_.generations;
+  k.pending = state_.pending;
+  k.reactions = state_.reactions;
+  k.request = request_;
+  const std::size_t dense = last_dense_;
+  std::copy_n(probe_inputs_.begin(), dense, k.inputs.begin());
+  k.slot_of = slot_of_;
+  k.last_dense = dense;
+  k.last_tissue = last_tissue_;
+  k.tissue_tick = tissue_tick_;
+
+  rehearsing_ = true;
+  const double t = state_.last_tick_time;
+  (void)tick(request_.tick, t, surface, t, inputs.first(n), results.first(n), k.contacts);
+  rehearsing_ = false;
+
+  for (std::size_t i = 0; i < n; ++i)  // tick() leaves which slots are active as they were
+    if (state_.probes[i].active) state_.probes[i] = k.probes[i];
+  state_.last_tick_time = k.last_tick_time;
+  state_.have_last_tick = true;
+  state_.deform_phase = k.deform_phase;
+  state_.generations = k.generations;
+  state_.pending = k.pending;
+  state_.reactions = k.reactions;
+  request_ = k.request;
+  std::copy_n(k.inputs.begin(), dense, probe_inputs_.begin());
+  slot_of_ = k.slot_of;
+  last_dense_ = k.last_dense;
+  last_tissue_ = k.last_tissue;
+  tissue_tick_ = k.tissue_tick;
 }
 
 // The last tick's haptic_tick again, from copies of the memories it left,

@@ -336,6 +336,21 @@ class LoopCore {
   /// another CPU. Costs about one
   /// tick (microseconds); no allocation, no lock.
   void warm_caches(const deform::DeformableSurface& surface, bool rehearse_corners = false) noexcept;
+  /// Runs tick()'s own code once more after warm_caches, for a caller that
+  /// has just run a deformation step on the tick's thread (Session::deform):
+  /// the last tick again, at its time, with `inputs` (the inputs that tick
+  /// was given, probe_count() entries) and the copies of the probes'
+  /// memories warm_caches makes, into `results` (scratch, probe_count()
+  /// entries) and a contact set of its own; everything tick() writes is put
+  /// back after, so no later tick, result, request() or state() differs, to
+  /// the bit. The step evicts the tick's code and what it reads around
+  /// haptic_tick (the inputs' checks, the mapping, the safety chain, the
+  /// results), which warm_caches does not run: on the 1M sphere the quiet
+  /// ticks right after a step had twice the p99 of those a tick later
+  /// (docs/PERFORMANCE.md, round 36). Does nothing before a tick has run
+  /// (can_warm()). About one tick (microseconds); no allocation, no lock.
+  void rehearse_tick(const deform::DeformableSurface& surface, std::span<const ProbeTickInput> inputs,
+                     std::span<ProbeTickResult> results) noexcept;
   /// What the last warm_caches found for each probe of the last tick, in
   /// the order of its dense probes (for tests).
   std::span<const ProbeOutput> last_warm() const noexcept {
@@ -398,6 +413,23 @@ class LoopCore {
   std::size_t last_dense_ = 0;
   bool last_tissue_ = false;
   std::array<ProbeMemory, kMaxProbes> warm_memory_{};
+  // rehearse_tick: while it runs, tick() reads the memories' copies in
+  // warm_memory_ (by slot); what tick() writes is kept here and put back.
+  bool rehearsing_ = false;
+  struct Rehearsal {
+    std::array<CoreProbeState, kMaxProbes> probes{};
+    double last_tick_time = 0, deform_phase = 0;
+    std::uint64_t generations = 0;
+    DeformEdits pending;
+    tissue::ReactionState reactions;
+    DeformRequest request;
+    std::array<ProbeInput, kMaxProbes> inputs{};
+    std::array<std::uint8_t, kMaxProbes> slot_of{};
+    std::size_t last_dense = 0;
+    bool last_tissue = false;
+    TissueTick tissue_tick;
+    ContactSet contacts;
+  } rehearsal_;
   std::array<ProbeOutput, kMaxProbes> warm_outputs_{};
   Vec3 range_lo_, range_hi_;   // positions outside are clamped onto this box (no contact possible)
   Vec3 parking_;               // where a probe with no valid position yet is placed (far from the surface)

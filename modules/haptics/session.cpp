@@ -127,6 +127,8 @@ bool Session::tick(double t, std::span<const ProbeTickInput> inputs, std::span<P
   if (generation_ == 0 && tick_ == 0) model_time_ = t;
   const double mt = std::isnan(model_time) ? model_time_ : model_time;
   const bool due = core_->tick(tick_, t, *surface_, mt, inputs, results, contacts_);
+  last_input_count_ = std::min(inputs.size(), last_inputs_.size());
+  std::copy_n(inputs.begin(), last_input_count_, last_inputs_.begin());
   ++tick_;
   return due;
 }
@@ -161,8 +163,11 @@ void Session::deform(const DeformRequest& r) {
   // through this thread's cache; the next tick would pay for it (issue 8,
   // target 3: its p99 was about twice the other ticks'), and a probe's
   // crossing past a corner found neither its triangles nor the walk's code
-  // (round 31): the warm-up rehearses that crossing too.
+  // (round 31): the warm-up rehearses that crossing too. Then the tick's
+  // own code around the query, which the step evicted too (round 36).
   core_->warm_caches(*surface_, true);
+  core_->rehearse_tick(*surface_, std::span<const ProbeTickInput>(last_inputs_.data(), last_input_count_),
+                       rehearsal_results_);
   note_edits(r.edits);
   generation_ = r.generation;
   model_time_ = r.time;

@@ -145,8 +145,10 @@ class Session {
   /// its request is core().request()), and the deformation half. A replay
   /// passes the recorded `model_time` (s) of the generation the tick used;
   /// NaN: the time of the tick that asked for the current generation.
-  /// deform() ends by bringing the next tick's data back into this thread's
-  /// cache (LoopCore::warm_caches), which changes no result.
+  /// deform() ends by bringing the next tick's data and code back into this
+  /// thread's cache (LoopCore::warm_caches, then LoopCore::rehearse_tick on
+  /// the last tick's inputs, which tick() keeps a copy of), which changes no
+  /// result.
   bool tick(double t, std::span<const ProbeTickInput> inputs, std::span<ProbeTickResult> results,
             double model_time = std::numeric_limits<double>::quiet_NaN());
   void deform(const DeformRequest& request);
@@ -175,6 +177,10 @@ class Session {
   std::unique_ptr<deform::DeformableSurface> surface_;
   std::unique_ptr<LoopCore> core_;
   ContactSet contacts_;
+  // The last tick's inputs, for the rehearsal after a step (LoopCore::rehearse_tick), and its scratch results.
+  std::array<ProbeTickInput, kMaxProbes> last_inputs_{};
+  std::size_t last_input_count_ = 0;
+  std::array<ProbeTickResult, kMaxProbes> rehearsal_results_{};
   std::vector<deform::Contact> scratch_;
   std::uint64_t tick_ = 0, generation_ = 0;
   double model_time_ = 0;

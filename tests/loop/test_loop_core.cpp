@@ -4,6 +4,7 @@
 
 #include "haptics/loop_core.h"
 #include "mesh/generate.h"
+#include "bits.h"
 
 #include <gtest/gtest.h>
 
@@ -413,6 +414,97 @@ TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
   EXPECT_GT(clear_warmed, 25u);
   std::printf("%zu probe-ticks in contact, %zu out of it, %zu of those clear; %zu warms after a clear tick\n",
               in_contact, out_of_contact, clear, clear_warmed);
+}
+
+// rehearse_tick (what Session::deform runs after warm_caches) runs tick()'s
+// code once more and puts back everything it writes: a core that rehearses
+// after every deformation step gives, bit for bit, the results, requests and
+// state of one that never does. The rehearsal must show in nothing but its
+// own scratch results, which repeat the last tick (the same sample: the same
+// position and velocity). What a forgotten restore would change: the safety
+// filters' ramp and force-rate limit (probe 0 ramps in and is rate limited),
+// the clutch's offset (probe 2 clutches and lets go), the ramp after probe
+// 0 is enabled again at tick 710, the deformation
+// schedule (generations, the phase, the request), the probes' memories, the free slot
+// (probe 1 leaves at tick 400).
+TEST_F(LoopCoreTest, RehearsingATickChangesNoResultNoRequestAndNoState) {
+  config_.deform_rate_hz = 700;  // 0.7 of a step a tick: a rehearsal after a step is often due a step itself
+  std::vector<ProbeSetup> probes{setup(), setup(), setup()};
+  probes[0].safety.ramp_time = 0.05;
+  probes[0].safety.max_force_rate = 40.0;
+  probes[2].mapping.clutch_button = 0;
+  auto plain = make(probes);
+  auto rehearsed = make(probes);
+  ContactSet rehearsed_contacts;
+  std::vector<deform::Contact> contacts;
+  std::size_t rehearsals = 0, in_contact = 0, clutched = 0, ramped = 0, limited = 0;
+  for (std::uint64_t i = 1; i <= 1500; ++i) {
+    const double t = 1.0 + static_cast<double>(i) * kPeriod;
+    for (auto* c : {plain.get(), rehearsed.get()}) {
+      if (i == 400) c->apply(LoopCommand::of(LoopCommandKind::RemoveProbe, 1), t);
+      if (i == 700) c->apply(LoopCommand::of(LoopCommandKind::Disable, 0), t);
+      if (i == 710) c->apply(LoopCommand::of(LoopCommandKind::Enable, 0), t);  // ramps in again over 50 ms
+    }
+    std::array<ProbeTickInput, 3> in{};
+    for (int p = 0; p < 3; ++p) in[p] = sliding_input(p, i, t);
+    if (i % 300 > 200) in[2].sample.buttons = 1;  // probe 2's clutch held for 99 ticks in 300
+    std::array<ProbeTickResult, 3> a{}, b{};
+    const bool due_a = plain->tick(i, t, *surface_, t, in, a, contacts_);
+    const bool due_b = rehearsed->tick(i, t, *surface_, t, in, b, rehearsed_contacts);
+    ASSERT_EQ(due_a, due_b) << "tick " << i;
+    for (int p = 0; p < 3; ++p) {
+      SCOPED_TRACE("tick " + std::to_string(i) + ", probe " + std::to_string(p));
+      EXPECT_EQ(test::result_difference(a[p], b[p]), "");
+      EXPECT_EQ(a[p].path, b[p].path);
+      in_contact += a[p].in_contact;
+      clutched += a[p].clutched;
+      if (p == 0) {
+        ramped += (a[p].flags & kSafetyRamping) != 0;
+        limited += (a[p].flags & kSafetyRateLimited) != 0;
+      }
+    }
+    const CoreState& sa = plain->state();
+    const CoreState& sb = rehearsed->state();
+    ASSERT_TRUE(test::same_bits(sa.deform_phase, sb.deform_phase)) << "tick " << i;
+    ASSERT_EQ(sa.generations, sb.generations) << "tick " << i;
+    for (int p = 0; p < 3; ++p) {
+      ASSERT_EQ(sa.probes[p].active, sb.probes[p].active);
+      ASSERT_EQ(sa.memory[p].in_contact, sb.memory[p].in_contact);
+      ASSERT_EQ(sa.memory[p].cursor.triangle, sb.memory[p].cursor.triangle);
+      ASSERT_EQ(sa.memory[p].cursor.barycentric, sb.memory[p].cursor.barycentric);
+    }
+    if (!due_a) continue;
+    ASSERT_EQ(plain->request().generation, rehearsed->request().generation);
+    ASSERT_EQ(plain->request().contacts.count, rehearsed->request().contacts.count);
+    // The step from the plain core's contacts, then the warm-up and the
+    // rehearsal of the last tick, as Session::deform.
+    to_contacts(contacts_, contacts);
+    surface_->set_contacts(contacts);
+    surface_->step(plain->request().dt);
+    rehearsed->warm_caches(*surface_, true);
+    std::array<ProbeTickResult, 3> scratch{};
+    rehearsed->rehearse_tick(*surface_, in, scratch);
+    ++rehearsals;
+    EXPECT_EQ(rehearsed->request().generation, plain->request().generation);
+    EXPECT_EQ(rehearsed->request().tick, plain->request().tick);
+    EXPECT_EQ(rehearsed->state().pending.any(), plain->state().pending.any());
+    for (int p = 0; p < 3; ++p) {
+      SCOPED_TRACE("rehearsal after tick " + std::to_string(i) + ", probe " + std::to_string(p));
+      if (!rehearsed->active(p)) {
+        EXPECT_EQ(scratch[p].world, (Triple{0, 0, 0}));  // a free slot's result, cleared
+        continue;
+      }
+      EXPECT_EQ(scratch[p].world, b[p].world);
+      EXPECT_EQ(scratch[p].velocity, b[p].velocity);
+    }
+  }
+  EXPECT_GT(rehearsals, 1000u);
+  EXPECT_GT(in_contact, 1000u);
+  EXPECT_GT(clutched, 300u);
+  EXPECT_GT(ramped, 30u);
+  EXPECT_GT(limited, 30u);
+  std::printf("%zu rehearsals; %zu probe-ticks in contact, %zu clutched; probe 0 ramping on %zu ticks, rate limited on %zu\n",
+              rehearsals, in_contact, clutched, ramped, limited);
 }
 
 }  // namespace
