@@ -50,8 +50,8 @@ class LoopCoreTest : public ::testing::Test {
     return s;
   }
 
-  std::unique_ptr<LoopCore> make(std::vector<ProbeSetup> s) {
-    auto core = std::make_unique<LoopCore>(*tree_, *mesh_, config_, std::move(s));
+  std::unique_ptr<LoopCore> make(std::vector<ProbeSetup> s, const tissue::TissueField* field = nullptr) {
+    auto core = std::make_unique<LoopCore>(*tree_, *mesh_, config_, std::move(s), field);
     for (std::size_t i = 0; i < core->probe_count(); ++i) core->apply(LoopCommand::of(LoopCommandKind::Enable, std::uint32_t(i)), 0);
     return core;
   }
@@ -427,17 +427,39 @@ TEST_F(LoopCoreTest, WarmingTheCachesChangesNoResultAndNoMemory) {
 // 0 is enabled again at tick 710, the deformation
 // schedule (generations, the phase, the request), the probes' memories, the free slot
 // (probe 1 leaves at tick 400).
-TEST_F(LoopCoreTest, RehearsingATickChangesNoResultNoRequestAndNoState) {
+// With a tissue field (a pulse under the path and a guarding region over
+// the whole plane), the guarding's triggers are compared too.
+class RehearsalTest : public LoopCoreTest, public ::testing::WithParamInterface<bool> {};
+
+TEST_P(RehearsalTest, RehearsingATickChangesNoResultNoRequestAndNoState) {
   config_.deform_rate_hz = 700;  // 0.7 of a step a tick: a rehearsal after a step is often due a step itself
   std::vector<ProbeSetup> probes{setup(), setup(), setup()};
   probes[0].safety.ramp_time = 0.05;
   probes[0].safety.max_force_rate = 40.0;
   probes[2].mapping.clutch_button = 0;
-  auto plain = make(probes);
-  auto rehearsed = make(probes);
+  tissue::TissueField field;
+  if (GetParam()) {
+    tissue::Pulse pulse;
+    pulse.name = "artery";
+    pulse.path = {Vec3(-0.02, 0.0, -0.003), Vec3(0.02, 0.0, -0.003)};
+    pulse.radius = 0.006;
+    pulse.amplitude = 0.0005;
+    pulse.rate_bpm = 90;
+    tissue::DynamicRegion guard;
+    guard.region = "all";
+    guard.guarding.enabled = true;
+    guard.guarding.threshold = 0.3;  // N
+    guard.guarding.factor = 1.5;
+    guard.guarding.duration = 0.15;
+    guard.guarding.release = 0.05;
+    field = tissue::make_field(*mesh_, 0.008, {}, {pulse}, {}, {guard},
+                               {std::vector<float>(mesh_->vertex_count(), 1.0f)});
+  }
+  auto plain = make(probes, GetParam() ? &field : nullptr);
+  auto rehearsed = make(probes, GetParam() ? &field : nullptr);
   ContactSet rehearsed_contacts;
   std::vector<deform::Contact> contacts;
-  std::size_t rehearsals = 0, in_contact = 0, clutched = 0, ramped = 0, limited = 0;
+  std::size_t rehearsals = 0, in_contact = 0, clutched = 0, ramped = 0, limited = 0, guarded = 0;
   for (std::uint64_t i = 1; i <= 1500; ++i) {
     const double t = 1.0 + static_cast<double>(i) * kPeriod;
     for (auto* c : {plain.get(), rehearsed.get()}) {
@@ -467,6 +489,9 @@ TEST_F(LoopCoreTest, RehearsingATickChangesNoResultNoRequestAndNoState) {
     const CoreState& sb = rehearsed->state();
     ASSERT_TRUE(test::same_bits(sa.deform_phase, sb.deform_phase)) << "tick " << i;
     ASSERT_EQ(sa.generations, sb.generations) << "tick " << i;
+    for (std::size_t g = 0; g < tissue::kMaxDynamicRegions; ++g)
+      ASSERT_TRUE(test::same_bits(sa.reactions.triggered_at[g], sb.reactions.triggered_at[g])) << "tick " << i;
+    guarded += sa.reactions.triggered_at[0] == t;
     for (int p = 0; p < 3; ++p) {
       ASSERT_EQ(sa.probes[p].active, sb.probes[p].active);
       ASSERT_EQ(sa.memory[p].in_contact, sb.memory[p].in_contact);
@@ -503,9 +528,18 @@ TEST_F(LoopCoreTest, RehearsingATickChangesNoResultNoRequestAndNoState) {
   EXPECT_GT(clutched, 300u);
   EXPECT_GT(ramped, 30u);
   EXPECT_GT(limited, 30u);
-  std::printf("%zu rehearsals; %zu probe-ticks in contact, %zu clutched; probe 0 ramping on %zu ticks, rate limited on %zu\n",
-              rehearsals, in_contact, clutched, ramped, limited);
+  if (GetParam()) {
+    EXPECT_GT(guarded, 2u) << "the guarding never set off";
+  }
+  std::printf("%zu rehearsals; %zu probe-ticks in contact, %zu clutched; probe 0 ramping on %zu ticks, rate limited on "
+              "%zu; the guarding set off %zu times\n",
+              rehearsals, in_contact, clutched, ramped, limited, guarded);
 }
+
+INSTANTIATE_TEST_SUITE_P(LoopCore, RehearsalTest, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& i) {
+                           return std::string(i.param ? "WithATissueField" : "WithoutATissueField");
+                         });
 
 }  // namespace
 }  // namespace palpa::haptics
