@@ -338,10 +338,11 @@ class LoopCore {
   void warm_caches(const deform::DeformableSurface& surface, bool rehearse_corners = false) noexcept;
   /// Runs tick()'s own code once more after warm_caches, for a caller that
   /// has just run a deformation step on the tick's thread (Session::deform):
-  /// the last tick again, at its time, with `inputs` (the inputs that tick
-  /// was given, probe_count() entries) and the copies of the probes'
-  /// memories warm_caches makes, into `results` (scratch, probe_count()
-  /// entries) and a contact set of its own; everything tick() writes is put
+  /// the last tick again, at its time (s), with `inputs` (the inputs that
+  /// tick was given, probe_count() entries) and copies of the probes'
+  /// memories made as warm_caches makes them (it makes its own), into
+  /// `results` (scratch, probe_count() entries) and a contact set of its
+  /// own; everything tick() writes is put
   /// back after, so no later tick, result, request() or state() differs, to
   /// the bit. The step evicts the tick's code and what it reads around
   /// haptic_tick (the inputs' checks, the mapping, the safety chain, the
