@@ -3,6 +3,8 @@
 
 #include "collision/vertex_tree.h"
 
+#include "core/huge_pages.h"
+
 #include "mesh/surface_mesh.h"
 
 #include <Eigen/Geometry>
@@ -88,6 +90,10 @@ VertexTree::VertexTree(std::span<const Vec3> positions, int leaf_size) {
     if (nd.left != kNoIndex) continue;
     for (Index i = nd.begin; i < nd.end; ++i) leaf_of_[i] = k;
   }
+  core::prefer_huge_pages(order_);
+  core::prefer_huge_pages(points_);
+  core::prefer_huge_pages(leaf_of_);
+  core::prefer_huge_pages(nodes_);
 }
 
 double triangle_reach(const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -138,6 +144,8 @@ VertexTree::VertexTree(const mesh::SurfaceMesh& mesh, int leaf_size)
     }
     node_reach_[k] = r;
   }
+  core::prefer_huge_pages(point_reach_);
+  core::prefer_huge_pages(node_reach_);
 }
 
 Index VertexTree::build_node(std::span<const Vec3> positions, Index begin, Index end, Index parent,

@@ -5,6 +5,7 @@
 #include "deform/surface.h"
 
 #include "core/shared_by_owner.h"
+#include "core/huge_pages.h"
 #include "core/subnormals.h"
 #include "deform/forced_sweep.h"
 #include "deform/rest_scan.h"
@@ -181,6 +182,31 @@ DeformableSurface::DeformableSurface(std::shared_ptr<const mesh::SurfaceMesh> me
   changed_.resize(n);
   static_assert(kChanged == kChangedFlag);
   build_integrators(materials);
+  advise_huge_pages();
+}
+
+void DeformableSurface::advise_huge_pages() const {
+  // The arrays a tick and a step read at random (core/huge_pages.h): the
+  // mesh's (shared: a second surface on it asks again, which costs nothing
+  // once they are huge) and this surface's.
+  const mesh::SurfaceMesh& m = *mesh_;
+  using core::prefer_huge_pages;
+  prefer_huge_pages(m.positions);
+  prefer_huge_pages(m.normals);
+  prefer_huge_pages(m.triangles);
+  prefer_huge_pages(m.triangle_neighbors);
+  prefer_huge_pages(m.vertex_neighbors.offsets);
+  prefer_huge_pages(m.vertex_neighbors.items);
+  prefer_huge_pages(m.vertex_triangles.offsets);
+  prefer_huge_pages(m.vertex_triangles.items);
+  prefer_huge_pages(*drawn_limits_);
+  prefer_huge_pages(state_.vertices);
+  prefer_huge_pages(force_);
+  prefer_huge_pages(correction_);
+  prefer_huge_pages(flags_);
+  prefer_huge_pages(stream_);
+  prefer_huge_pages(active_);
+  prefer_huge_pages(changed_);
 }
 
 DeformableSurface::MaterialKey DeformableSurface::key_of(const Material& m) {

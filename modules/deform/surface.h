@@ -295,6 +295,7 @@ class DeformableSurface {
   // The first field of a build to reach vertex i clears what the last build
   // left there and lists it in forced_ (flag bit 5 until the build ends).
   void touch_field(Index i);
+  void advise_huge_pages() const;
   // Vertex i is in no field any more: no force or correction, not forced,
   // and its stream entry rewritten.
   void leave_fields(Index i);

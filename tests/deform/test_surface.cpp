@@ -5,6 +5,7 @@
 #include "deform/surface.h"
 
 #include "allocation_counter.h"
+#include "common/huge_pages_support.h"
 #include "mesh/generate.h"
 
 #include <Eigen/Geometry>
@@ -1071,6 +1072,34 @@ TEST(Surface, WarmStepsAllocateNothing) {
     }
     s.reset();
   }
+}
+
+// The surface asks for huge pages (core/huge_pages.h) for the large arrays
+// a tick and a step read at random: its mesh's and its own. Checked where
+// the kernel collapses a scratch array of the same size on request.
+TEST(DeformableSurface, TheLargeArraysOfTheSurfaceAndItsMeshAreInHugePages) {
+  const MeshPtr m = sphere(400000, 0.1);  // positions and normals 9.6 MB, the state 9.6 MB
+  const std::vector<double> scratch(m->vertex_count() * 3, 1.0);
+  if (core::prefer_huge_pages(scratch).collapsed == 0) {
+    GTEST_SKIP() << "the kernel collapsed nothing here (it needs Linux 6.1, free huge pages and a THP setting "
+                    "other than 'never'; transparent huge pages are '"
+                 << test::thp_setting() << "'), so there is nothing to check";
+  }
+  const DeformableSurface s(m, MaterialArrays::uniform(m->vertex_count(), linear()));
+  auto check = [](const char* what, const void* data, std::size_t bytes) {
+    const std::size_t whole = test::whole_huge_pages(data, bytes);
+    ASSERT_GE(whole, 2 * core::kHugePageBytes) << what;
+    const auto a = reinterpret_cast<std::uintptr_t>(data);
+    const std::uintptr_t first = (a + core::kHugePageBytes - 1) / core::kHugePageBytes * core::kHugePageBytes;
+    const long kb = test::huge_kb_of_mapping_holding(first, first + whole);
+    EXPECT_GE(kb, 0) << what << ": no one mapping holds its whole huge pages (none advised)";
+    EXPECT_GE(static_cast<std::size_t>(std::max(kb, 0L)) * 1024, whole) << what;
+  };
+  check("the mesh's positions", m->positions.data(), m->positions.size() * sizeof(Vec3));
+  check("the mesh's normals", m->normals.data(), m->normals.size() * sizeof(Vec3));
+  check("the mesh's triangles", m->triangles.data(), m->triangles.size() * sizeof(mesh::Triangle));
+  check("the state", s.state().vertices.data(), s.state().vertices.size() * sizeof(VertexState));
+  check("the stream", s.stream().data(), s.stream().size() * sizeof(float));
 }
 
 }  // namespace
