@@ -736,6 +736,7 @@ void run_same_phase(const Plan& plan, const Options& opt, Results& res) {
               "(%s, %s, %s, %s); the interleaved run's paths and steps\n",
               blocks, block, untimed, cases[0].name.c_str(), cases[1].name.c_str(), cases[2].name.c_str(),
               cases[3].name.c_str());
+  std::printf("same phase, meshes built: %s\n", bench::huge_page_report().c_str());
   // Ratios of case `num` to case `den`: of the pooled p99s, and each round's.
   struct Ratio {
     const char* what;
@@ -861,6 +862,7 @@ void run_mesh(const MeshCase& mc, const Plan& plan, const Options& opt, Results&
     InterleavedTicks run(model, V, probes, probes == kMaxProbes);
     for (auto& v : {&run.tick_ns, &run.step_ns}) v->reserve(plan.ticks);
     run.run(paths, 0, paths.ticks, plan.warmup);
+    if (probes == 1) std::printf("[%s] %s\n", mc.name.c_str(), bench::huge_page_report().c_str());
     deform::DeformableSurface& surface = run.session.surface();
     auto& tick_ns = run.tick_ns;
     auto& step_ns = run.step_ns;

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <memory>
 
 namespace palpa::bench {
@@ -52,6 +54,37 @@ ClockOverhead measure_clock_overhead() {
   c.p50_ns = d[d.size() / 2];
   c.p99_ns = d[d.size() * 99 / 100];
   return c;
+}
+
+std::string huge_page_report() {
+  std::string setting;
+  {
+    std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
+    std::string line;
+    std::getline(in, line);
+    const auto open = line.find('['), close = line.find(']');
+    if (open != std::string::npos && close != std::string::npos) setting = line.substr(open + 1, close - open - 1);
+  }
+  long rss_kb = -1, huge_kb = -1;
+  {
+    std::ifstream in("/proc/self/smaps_rollup");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("Rss:", 0) == 0) rss_kb = std::atol(line.c_str() + 4);
+      if (line.rfind("AnonHugePages:", 0) == 0) huge_kb = std::atol(line.c_str() + 14);
+    }
+  }
+  char text[256];
+  if (setting.empty() || rss_kb < 0 || huge_kb < 0) {
+    std::snprintf(text, sizeof text, "transparent huge pages: not known here (no /sys/kernel/mm/transparent_hugepage "
+                                     "or /proc/self/smaps_rollup)");
+  } else {
+    std::snprintf(text, sizeof text,
+                  "transparent huge pages: system setting '%s'; this process holds %.0f MB in huge pages of %.0f MB "
+                  "resident",
+                  setting.c_str(), huge_kb / 1024.0, rss_kb / 1024.0);
+  }
+  return text;
 }
 
 double median_memcpy_seconds(std::size_t bytes, int min_reps, double min_seconds) {

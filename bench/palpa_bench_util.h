@@ -44,6 +44,12 @@ ClockOverhead measure_clock_overhead();
 /// min_reps and about min_seconds in total); buffers are touched beforehand.
 double median_memcpy_seconds(std::size_t bytes, int min_reps, double min_seconds);
 
+/// One line on the transparent huge pages (core/huge_pages.h): the
+/// system's setting and how much of this process's resident memory is in
+/// huge pages now (from /proc/self/smaps_rollup; MB), for the figures'
+/// context. Says so where the system does not tell.
+std::string huge_page_report();
+
 /// Median of a sample (sorts in place); 0 for an empty one.
 double median(std::vector<double>& v);
 
