@@ -736,7 +736,6 @@ void run_same_phase(const Plan& plan, const Options& opt, Results& res) {
               "(%s, %s, %s, %s); the interleaved run's paths and steps\n",
               blocks, block, untimed, cases[0].name.c_str(), cases[1].name.c_str(), cases[2].name.c_str(),
               cases[3].name.c_str());
-  std::printf("same phase, meshes built: %s\n", bench::huge_page_report().c_str());
   // Ratios of case `num` to case `den`: of the pooled p99s, and each round's.
   struct Ratio {
     const char* what;
@@ -768,6 +767,8 @@ void run_same_phase(const Plan& plan, const Options& opt, Results& res) {
       for (std::size_t k = 0; k < ratios_of.size(); ++k)
         if (p99[ratios_of[k].den] > 0) rounds[k].push_back(p99[ratios_of[k].num] / p99[ratios_of[k].den]);
     }
+    std::printf("[same phase] %d probe%s, the four sessions made: %s\n", probes, probes == 1 ? "" : "s",
+                bench::huge_page_report().c_str());
     json r = {{"section", "same_phase"}, {"probes", probes}, {"blocks", blocks}, {"block_ticks", block},
               {"untimed_per_block", untimed}};
     std::array<Latency, 4> pooled;
