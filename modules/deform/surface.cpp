@@ -4,8 +4,8 @@
 
 #include "deform/surface.h"
 
-#include "core/shared_by_owner.h"
 #include "core/huge_pages.h"
+#include "core/shared_by_owner.h"
 #include "core/subnormals.h"
 #include "deform/forced_sweep.h"
 #include "deform/rest_scan.h"

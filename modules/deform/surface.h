@@ -295,6 +295,8 @@ class DeformableSurface {
   // The first field of a build to reach vertex i clears what the last build
   // left there and lists it in forced_ (flag bit 5 until the build ends).
   void touch_field(Index i);
+  // Asks for huge pages for this surface's per-vertex arrays and its mesh's
+  // (core/huge_pages.h); the constructor's last act.
   void advise_huge_pages() const;
   // Vertex i is in no field any more: no force or correction, not forced,
   // and its stream entry rewritten.
