@@ -529,7 +529,6 @@ void LoopCore::rehearse_tick(const deform::DeformableSurface& surface, std::span
   const std::size_t dense = last_dense_;
   std::copy_n(probe_inputs_.begin(), dense, k.inputs.begin());
   k.slot_of = slot_of_;
-  k.last_dense = dense;
   k.last_tissue = last_tissue_;
   k.tissue_tick = tissue_tick_;
 
@@ -549,7 +548,7 @@ void LoopCore::rehearse_tick(const deform::DeformableSurface& surface, std::span
   request_ = k.request;
   std::copy_n(k.inputs.begin(), dense, probe_inputs_.begin());
   slot_of_ = k.slot_of;
-  last_dense_ = k.last_dense;
+  last_dense_ = dense;
   last_tissue_ = k.last_tissue;
   tissue_tick_ = k.tissue_tick;
 }

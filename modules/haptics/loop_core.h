@@ -426,7 +426,6 @@ class LoopCore {
     DeformRequest request;
     std::array<ProbeInput, kMaxProbes> inputs{};
     std::array<std::uint8_t, kMaxProbes> slot_of{};
-    std::size_t last_dense = 0;
     bool last_tissue = false;
     TissueTick tissue_tick;
     ContactSet contacts;
