@@ -2,6 +2,8 @@
 
 #include "palpa_bench_util.h"
 
+#include "core/huge_pages.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -57,14 +59,7 @@ ClockOverhead measure_clock_overhead() {
 }
 
 std::string huge_page_report() {
-  std::string setting;
-  {
-    std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
-    std::string line;
-    std::getline(in, line);
-    const auto open = line.find('['), close = line.find(']');
-    if (open != std::string::npos && close != std::string::npos) setting = line.substr(open + 1, close - open - 1);
-  }
+  const std::string setting = core::huge_page_setting();
   long rss_kb = -1, huge_kb = -1;
   {
     std::ifstream in("/proc/self/smaps_rollup");

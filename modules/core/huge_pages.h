@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #if defined(__linux__)
@@ -31,19 +32,33 @@ struct HugePageAdvice {
   std::size_t collapsed = 0;  ///< bytes: of those, what MADV_COLLAPSE put in huge pages at once (all or none)
 };
 
+/// The system's transparent huge page setting, the word in brackets in
+/// /sys/kernel/mm/transparent_hugepage/enabled ("always", "madvise" or
+/// "never"); "" where the kernel has none or not Linux. Reads the file.
+inline std::string huge_page_setting() {
+#if defined(__linux__)
+  std::FILE* f = std::fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
+  if (f == nullptr) return "";
+  char line[128] = {};
+  const bool read = std::fgets(line, sizeof line, f) != nullptr;
+  std::fclose(f);
+  const char* open = read ? std::strchr(line, '[') : nullptr;
+  const char* close = open != nullptr ? std::strchr(open, ']') : nullptr;
+  return close != nullptr ? std::string(open + 1, close) : "";
+#else
+  return "";
+#endif
+}
+
 /// Whether the system's administrator allows transparent huge pages: false
-/// where /sys/kernel/mm/transparent_hugepage/enabled says "never" (the
-/// kernel would still collapse on request, but the setting says not to) or
-/// the kernel has none. Read once per process.
+/// where huge_page_setting() is "never" (the kernel would still collapse on
+/// request, but the setting says not to) or the kernel has none. Read once
+/// per process.
 inline bool huge_pages_allowed() {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
   static const bool allowed = [] {
-    std::FILE* f = std::fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
-    if (f == nullptr) return false;
-    char line[128] = {};
-    const bool read = std::fgets(line, sizeof line, f) != nullptr;
-    std::fclose(f);
-    return read && std::strstr(line, "[never]") == nullptr;
+    const std::string setting = huge_page_setting();
+    return !setting.empty() && setting != "never";
   }();
   return allowed;
 #else

@@ -12,16 +12,22 @@ namespace palpa::test {
 
 using core::kHugePageBytes;
 
+// The address of the first 2 MiB page boundary at or after p.
+inline std::uintptr_t first_whole_huge_page(const void* p) {
+  const std::uintptr_t a = reinterpret_cast<std::uintptr_t>(p);
+  return (a / kHugePageBytes + (a % kHugePageBytes != 0)) * kHugePageBytes;
+}
+
 // The whole 2 MiB pages inside [p, p + bytes), in bytes.
 inline std::size_t whole_huge_pages(const void* p, std::size_t bytes) {
-  const std::uintptr_t a = reinterpret_cast<std::uintptr_t>(p);
-  const std::uintptr_t first = (a / kHugePageBytes + (a % kHugePageBytes != 0)) * kHugePageBytes;
-  const std::uintptr_t last = (a + bytes) / kHugePageBytes * kHugePageBytes;
+  const std::uintptr_t first = first_whole_huge_page(p);
+  const std::uintptr_t last = (reinterpret_cast<std::uintptr_t>(p) + bytes) / kHugePageBytes * kHugePageBytes;
   return last > first ? last - first : 0;
 }
 
 // The system's THP setting ("always", "madvise", "never"), or "" where the
-// kernel has no THP.
+// kernel has no THP. Read here on its own, not with core::huge_page_setting,
+// so that the tests check that one against a second reading.
 inline std::string thp_setting() {
   std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
   std::string line;

@@ -17,6 +17,7 @@
 namespace palpa::core {
 namespace {
 
+using test::first_whole_huge_page;
 using test::huge_kb_of_mapping_holding;
 using test::thp_setting;
 using test::whole_huge_pages;
@@ -36,6 +37,7 @@ TEST(HugePages, AdvisesTheWholeHugePagesInsideTheRangeAndKeepsTheContents) {
   const std::size_t expected = whole_huge_pages(v.data(), count * 8);
   ASSERT_GE(expected, 3 * kHugePageBytes);
   const std::string setting = thp_setting();
+  EXPECT_EQ(huge_page_setting(), setting);
   if (setting.empty() || setting == "never") {
     // No THP in the kernel, or the administrator's "never": nothing asked.
     EXPECT_FALSE(huge_pages_allowed());
@@ -73,14 +75,14 @@ TEST(HugePages, WhatItReportsCollapsedIsMappedWithHugePages) {
   const std::vector<std::uint64_t> v = pattern(count);
   const HugePageAdvice a = prefer_huge_pages(v);
   if (a.collapsed == 0) {
-    GTEST_SKIP() << "the kernel collapsed nothing here (it needs Linux 6.1, free huge pages and a THP setting other than 'never'; "
-                 << "transparent huge pages are '" << thp_setting() << "'), so there is no mapping to check";
+    GTEST_SKIP() << "the kernel collapsed nothing here (it needs Linux 6.1, free huge pages and a THP setting "
+                    "other than 'never'; transparent huge pages are '"
+                 << thp_setting() << "'), so there is no mapping to check";
   }
   // The advice gives the advised bytes a mapping of their own, or one
   // shared with advised neighbours: it holds at least the collapsed bytes
   // in huge pages.
-  const std::uintptr_t a0 = reinterpret_cast<std::uintptr_t>(v.data());
-  const std::uintptr_t first = (a0 / kHugePageBytes + (a0 % kHugePageBytes != 0)) * kHugePageBytes;
+  const std::uintptr_t first = first_whole_huge_page(v.data());
   const long kb = huge_kb_of_mapping_holding(first, first + a.collapsed);
   ASSERT_GE(kb, 0) << "no mapping of /proc/self/smaps holds the advised bytes";
   EXPECT_GE(static_cast<std::size_t>(kb) * 1024, a.collapsed);

@@ -1089,8 +1089,7 @@ TEST(DeformableSurface, TheLargeArraysOfTheSurfaceAndItsMeshAreInHugePages) {
   auto check = [](const char* what, const void* data, std::size_t bytes) {
     const std::size_t whole = test::whole_huge_pages(data, bytes);
     ASSERT_GE(whole, 2 * core::kHugePageBytes) << what;
-    const auto a = reinterpret_cast<std::uintptr_t>(data);
-    const std::uintptr_t first = (a + core::kHugePageBytes - 1) / core::kHugePageBytes * core::kHugePageBytes;
+    const std::uintptr_t first = test::first_whole_huge_page(data);
     const long kb = test::huge_kb_of_mapping_holding(first, first + whole);
     EXPECT_GE(kb, 0) << what << ": no one mapping holds its whole huge pages (none advised)";
     EXPECT_GE(static_cast<std::size_t>(std::max(kb, 0L)) * 1024, whole) << what;
