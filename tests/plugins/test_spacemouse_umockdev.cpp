@@ -149,14 +149,18 @@ TEST_F(SpaceMouseEmulated, ScriptedReportsMoveTheProbeAndUnplugLatchesAFault) {
   // Each interval is known to within one read on either side; reads more than
   // 50 ms apart integrate only 50 ms (the plugin's clamp), so allow for that too.
   const double slack = 0.1 * 2 * max_gap + 1e-3;
-  // Full right deflection for at least 0.3 s, then a pull toward the user for
-  // at least 0.2 s (HID -TY: device z decreases); the twist moves nothing.
+  // Full right deflection for 0.3 s, then a pull toward the user for 0.2 s
+  // (HID -TY: device z decreases); the twist moves nothing. Each position
+  // is checked closely against the time measured, and against the script's
+  // time only to at least half of it: a reader that sees a deflection late
+  // and its end on time shortens it (by about 100 ms when the whole process
+  // was stopped for 80 ms in every 150).
   EXPECT_NEAR(s.position[0], 0.1 * (x_to - x_from), slack) << "moved for " << x_to - x_from << " s";
-  EXPECT_GT(s.position[0], 0.1 * 0.3 - 0.008);
+  EXPECT_GT(s.position[0], 0.1 * 0.3 / 2);
   EXPECT_NEAR(max_x, s.position[0], 1e-12);
   EXPECT_NEAR(s.position[1], 0.0, 1e-12);
   EXPECT_NEAR(s.position[2], -0.1 * (z_to - z_from), slack) << "moved for " << z_to - z_from << " s";
-  EXPECT_LT(s.position[2], -0.1 * 0.2 + 0.008);
+  EXPECT_LT(s.position[2], -0.1 * 0.2 / 2);
   EXPECT_TRUE(button_seen);
   EXPECT_EQ(s.buttons, 0u);  // released again
 
