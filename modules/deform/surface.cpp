@@ -508,7 +508,10 @@ void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* 
   const double radius = c.shape.radius;
   // Past this squared distance sqrt(r2) >= radius whatever the rounding: the
   // roundings in radius^2 (1 + 1e-9) and in the square root are each about
-  // 1e-16 relative, far below the 1e-9 margin.
+  // 1e-16 relative, far below the 1e-9 margin. So a neighbour past it is
+  // left out of the queue, and every vertex queued but the contact's own is
+  // within it (the same expression, the same bits): the visit below needs
+  // no such check of its own, the square root's test covers the first.
   const double outside2 = radius * radius * (1.0 + 1e-9);
   const Index* offsets = mesh_->vertex_neighbors.offsets.data();
   const Index* items = mesh_->vertex_neighbors.items.data();
@@ -537,7 +540,6 @@ void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* 
     const Index i = queue[head];
     const Vec3 d = pos[i] - c.point;
     const double r2 = d.squaredNorm();
-    if (r2 > outside2) continue;
     const double r = std::sqrt(r2);  // = d.norm(), bit for bit
     if (!(r < radius)) continue;
     if (n && nrm[i].dot(*n) < min_cosine) continue;
@@ -553,7 +555,7 @@ void DeformableSurface::visit_field(const Contact& c, double depth, const Vec3* 
       const Index j = items[k];
       const std::uint8_t f = flags[j];
       if (f & kVisited) continue;
-      if ((pos[j] - c.point).squaredNorm() > outside2) continue;  // as r2 above
+      if ((pos[j] - c.point).squaredNorm() > outside2) continue;  // as r2 above: clearly outside
       flags[j] = static_cast<std::uint8_t>(f | kVisited);
       queue[tail++] = j;
       if constexpr (!kLight) ask_for(j);
