@@ -61,10 +61,10 @@ TEST(HugePages, RangesWithoutAWholeHugePageAreLeftAlone) {
   const std::vector<std::uint64_t> small = pattern((1u << 20) / 8);  // 1 MiB
   EXPECT_EQ(prefer_huge_pages(small).advised, 0u);
   EXPECT_EQ(prefer_huge_pages(std::vector<int>{}).advised, 0u);
-  // 3 MiB starting one byte past a huge page boundary: no whole page.
+  // 2 MiB and a byte, starting one byte past a huge page boundary inside a
+  // larger array: no whole page.
   std::vector<char> big(8u << 20);
-  const std::uintptr_t a = reinterpret_cast<std::uintptr_t>(big.data());
-  const std::uintptr_t boundary = (a / kHugePageBytes + 1) * kHugePageBytes;
+  const std::uintptr_t boundary = first_whole_huge_page(big.data());
   const HugePageAdvice off = prefer_huge_pages(reinterpret_cast<const void*>(boundary + 1), kHugePageBytes + 1);
   EXPECT_EQ(off.advised, 0u);
   EXPECT_EQ(off.collapsed, 0u);
